@@ -1,1 +1,19 @@
-"""contour_env: multi-axis CNC feed-drive contouring environments (SI units throughout)."""
+"""contour_env: multi-axis CNC feed-drive contouring environments (SI units throughout).
+
+Importing the package registers ``contour_env/Contouring-v0`` with Gymnasium.
+"""
+
+from gymnasium.envs.registration import register, registry
+
+ENV_ID = "contour_env/Contouring-v0"
+
+if ENV_ID not in registry:
+    register(
+        id=ENV_ID,
+        entry_point="contour_env.env.contouring_env:ContouringEnv",
+        vector_entry_point="contour_env.env.vector_env:ContouringVectorEnv",
+        disable_env_checker=False,
+    )
+
+__version__ = "0.1.0"
+__all__ = ["ENV_ID", "__version__"]

@@ -1,0 +1,147 @@
+"""The ``contour-env`` command line: ``cases``, ``run``, ``bench``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+DEFAULT_CASE = "hsm2-circle-II"
+
+
+def _add_target_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--case", help="named case (see `contour-env cases`)")
+    p.add_argument("--plant", help="plant name, with --gcode (hsm2, jee-triaxial, linear-motor, "
+                                   "friction-table)")
+    p.add_argument("--gcode", help="G-code file (.nc/.gcode/.ngc/.tap) to follow, with --plant")
+    p.add_argument("--feedrate", type=float, default=None,
+                   help="feedrate override, m/s (default: the case's or the program's F words)")
+    p.add_argument("--ideal", action="store_true",
+                   help="textbook plant: no delay, current lag, added friction, ripple, mismatch")
+    p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
+
+
+def _target_kwargs(args) -> dict:
+    if args.case and args.gcode:
+        raise SystemExit("error: give --case, or --plant with --gcode, not both")
+    if args.gcode and not args.plant:
+        raise SystemExit("error: --gcode needs --plant (hsm2, jee-triaxial, linear-motor, "
+                         "friction-table)")
+    if args.plant and not args.gcode and not args.case:
+        raise SystemExit("error: --plant needs --gcode (or use --case)")
+    kw = {"ideal": args.ideal}
+    if args.gcode:
+        kw.update(plant=args.plant, path=args.gcode)
+    else:
+        kw["case"] = args.case or DEFAULT_CASE
+        if args.plant:
+            kw["plant"] = args.plant
+    if args.feedrate is not None:
+        kw["feedrate_m_s"] = args.feedrate
+    return kw
+
+
+def cmd_cases(args) -> int:
+    from .cases import CASES
+
+    print(f"{'case':18s} {'plant':15s} {'path':10s} {'feedrate':>12s}  notes")
+    for spec in CASES.values():
+        print(f"{spec.name:18s} {spec.plant:15s} {spec.path['kind']:10s} "
+              f"{spec.feedrate_m_s:9.4f} m/s  {spec.notes[:70]}…")
+        if args.verbose:
+            print(f"    {spec.notes}\n    published: {spec.published}")
+    return 0
+
+
+def _print_metrics(name: str, m: dict) -> None:
+    def fmt(v):
+        if v is None:
+            return "n/a"
+        if isinstance(v, list):
+            return "[" + ", ".join(fmt(x) for x in v) + "]"
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    print(f"{name}:")
+    for key, value in m.items():
+        print(f"  {key:28s} {fmt(value)}")
+
+
+def cmd_run(args) -> int:
+    import gymnasium as gym
+
+    from . import ENV_ID
+    from .evaluation import run_episode
+    from .io import atomic_write_json
+    from .metrics import score
+    from .plotting import plot_runs
+
+    kw = _target_kwargs(args)
+    env = gym.make(ENV_ID, **kw)
+    core = env.unwrapped.core
+    setup = core.setup
+    print(f"case {setup.name}: plant {setup.plant.name} ({'ideal' if kw['ideal'] else 'realistic'}"
+          f"), path length {setup.path.total_length:.4f} m, feedrate {setup.feedrate_m_s:.4f} m/s,"
+          f" {core.n_steps - 1} steps of {core.T * 1e3:g} ms")
+    policy, label = None, "zero command"
+    record = run_episode(env, policy, seed=args.seed)
+    metrics = score(record)
+    _print_metrics(label, metrics)
+    result = {"case": setup.name, "plant": setup.plant.name, "controller": label,
+              "ideal": bool(kw["ideal"]), "seed": args.seed, "metrics": metrics}
+    if args.json:
+        atomic_write_json(args.json, result)
+        print(f"wrote {args.json}")
+    if args.plot:
+        plot_runs({label: record}, core.ref_pav[:, 0, :], f"{setup.name} — {label}", args.plot,
+                  {label: metrics})
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import format_bench, run_bench
+    from .io import atomic_write_json
+
+    res = run_bench(args.case, seconds=args.seconds, progress=lambda s: print(s, flush=True))
+    print(format_bench(res))
+    if args.json:
+        atomic_write_json(args.json, res)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="contour-env",
+        description="Multi-axis CNC feed-drive contouring: cases, runs, benchmarks (SI units).")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("cases", help="list the named cases")
+    p.add_argument("-v", "--verbose", action="store_true", help="full notes and published results")
+    p.set_defaults(func=cmd_cases)
+    p = sub.add_parser("run", help="run one episode and print its metrics")
+    _add_target_args(p)
+    p.add_argument("--json", help="write the metrics as JSON to this file")
+    p.add_argument("--plot", help="write a plot (PNG) to this file")
+    p.set_defaults(func=cmd_run)
+    p = sub.add_parser("bench", help="steps/s of the single and the vectorised env")
+    p.add_argument("--case", default=DEFAULT_CASE, help=f"case (default {DEFAULT_CASE})")
+    p.add_argument("--seconds", type=float, default=2.0, help="time per measurement, s")
+    p.add_argument("--json", help="write the results as JSON to this file")
+    p.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    np.set_printoptions(precision=4)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,167 @@
+"""The Gymnasium contouring environment (a batch of one of :class:`EnvCore`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import gymnasium as gym
+from gymnasium import spaces
+
+from .core import EnvConfig, EnvCore, make_core
+
+
+class ContouringEnv(gym.Env):
+    """Multi-axis CNC feed drive following a reference contour.
+
+    ``gymnasium.make("contour_env/Contouring-v0", case="hsm2-circle-II")`` or
+    ``gymnasium.make("contour_env/Contouring-v0", plant="hsm2", path="part.nc")``.
+
+    ## Description
+
+    The tool is driven by n = 2 or 3 feed axes (``m ẍ + b ẋ + f_friction(ẋ) + f_ripple(x) + d(t)
+    = sat(u)`` per axis, with the plant's documented realistic effects, see
+    :mod:`contour_env.plants.catalog`). A reference point moves along the path with a
+    jerk-bounded feed profile, one servo period T per step. The task is to keep the tool on
+    the path: the reward comes from the **true contour error** ε, the shortest distance from
+    the tool to the whole path.
+
+    ## Action Space
+
+    ``Box(-1, 1, (n,), float32)``: the per-axis actuator command as a fraction of the axis
+    force limit (``plant.params.force_limit_N``; for ``jee-triaxial`` the velocity-command
+    limit). Values outside [-1, 1] are clipped. With the plant's computation delay the command
+    is applied one servo period later. A NaN or infinite action raises ``ValueError``.
+
+    ## Observation Space
+
+    ``Box(-clip, clip, (3n + 3 + p·n,), float32)`` (clip = ``obs_clip``, default 10), computed
+    from the *measured* state (encoder, with quantisation and optional noise; velocity by
+    backward difference), in the task frame F = [t n b] of the reference (Lee 2012 eqs. 2–3):
+
+    | index | field | unit before scaling | scale |
+    |---|---|---|---|
+    | 0 .. n−1 | Fᵀ(x_d − x): tangential, normal (, binormal) position error | m | / ``error_obs_scale_m`` (1e-4) |
+    | n .. 2n−1 | Fᵀ(ẋ_d − ẋ): task-frame velocity error | m/s | / ``velocity_error_obs_scale_m_s`` (1e-2) |
+    | 2n | reference feedrate ṡ | m/s | / case feedrate |
+    | 2n+1 | reference tangential acceleration s̈ | m/s² | / case max acceleration |
+    | 2n+2 | reference curvature κ (signed for planar paths) | 1/m | × ``curvature_obs_scale_m`` (0.05) |
+    | 2n+3 .. | preview: Fᵀ(x_d(t+τ_j) − x_d(t)) for τ_j in ``preview_times_s`` | m | / (feedrate · τ_j) |
+    | last n | previous action | – | – |
+
+    For a 2-axis plant the frame is the in-plane [t n] with n the left normal (Lee eq. 36).
+
+    ## Rewards
+
+    ``r = −(w_contour · ε + w_lag · |e_t|) / contour_error_scale_m − w_effort · ‖a‖² / n``
+    with ε the true contour error (m), e_t the tangential (lag) error (m) and a the action.
+    Defaults: w_contour = 1, w_lag = 0, w_effort = 0, scale 10 µm (r = −1 at ε = 10 µm).
+    On a non-finite state the reward is the crash-guard value −w_contour·abort/scale − w_effort.
+
+    ## Starting State
+
+    At rest on the start point of the path, k = 0 (noise-free named cases are deterministic).
+
+    ## Episode End
+
+    - terminated: ε > ``abort_contour_error_m`` (crash guard, default 5 mm) or a non-finite
+      state; ``info["termination_reason"]`` is ``"contour_error_limit"`` or ``"non_finite_state"``.
+    - truncated: the path and the settle time are done (k = n_steps − 1).
+
+    ## Info (every step, physical units)
+
+    ``time`` (s), ``step``, ``position`` (true, m, path frame), ``measured_position`` (m),
+    ``velocity`` (m/s), ``reference`` (m), ``contour_error`` (true ε, m),
+    ``contour_error_estimate`` (Fᵀ(x_d − x): tangential, normal(, binormal), m),
+    ``tracking_error`` (x_d − x, m), ``force`` (applied command after delay and saturation, N),
+    ``saturated`` (per axis bool), ``termination_reason`` (None while running).
+
+    ## Arguments
+
+    case : str — a named case (``contour-env cases``); its plant/path/feed are defaults.
+    plant : str or mapping — a named plant or custom parameters (with ``path``).
+    path : PathGeometry, G-code text or a ``.nc``/``.gcode`` file (G-code is read in its own
+        units and converted to metres).
+    feedrate_m_s, max_accel_m_s2, max_jerk_m_s3, settle_time_s : feed profile overrides.
+    ideal : bool — switch off every effect the textbook model leaves out.
+    structural_mode : bool — add the axial two-mass mode.
+    abort_contour_error_m, contour_error_scale_m, w_contour, w_lag, w_effort,
+    error_obs_scale_m, velocity_error_obs_scale_m_s, curvature_obs_scale_m, preview_times_s,
+    obs_clip : see above.
+    measurement_noise_std_m : Gaussian encoder noise before quantisation (default 0).
+    disturbance_force_N : bounded random force, uniform in ±value per step and axis (default 0).
+    render_mode : None or ``"rgb_array"``.
+
+    Random elements (noise, random disturbance) are drawn from a counter-based generator keyed
+    by the episode seed: ``reset(seed=s)`` gives a bit-identical episode every time.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, case=None, plant=None, path=None, *, render_mode=None, **kwargs):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: must be None or 'rgb_array', got {render_mode!r}")
+        self.core: EnvCore = make_core(case, plant, path, n_envs=1, **kwargs)
+        self.render_mode = render_mode
+        n = self.core.dim
+        self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+        clip = self.core.config.obs_clip
+        self.observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,), dtype=np.float32)
+        self._action = np.zeros((1, n))
+        self._active = np.ones(1, dtype=bool)
+        self._history: list[tuple] = []
+
+    # properties users script against
+    @property
+    def setup(self):
+        return self.core.setup
+
+    @property
+    def config(self) -> EnvConfig:
+        return self.core.config
+
+    @property
+    def plant(self):
+        return self.core.setup.plant
+
+    @property
+    def servo_period_s(self) -> float:
+        return self.core.T
+
+    def signals(self) -> dict:
+        """What a servo controller measures now (see :meth:`EnvCore.signals`)."""
+        return self.core.signals(0)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        noise_seed = seed if seed is not None else int(self.np_random.integers(0, 2**63))
+        self.core.reset_env(0, int(noise_seed))
+        self._history = [] if self.render_mode else self._history
+        if self.render_mode:
+            self._record()
+        return self.core.obs[0].copy(), self.core.info(0)
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (self.core.dim,):
+            a = a.reshape(-1)
+            if a.shape != (self.core.dim,):
+                raise ValueError(f"action: expected shape ({self.core.dim},), got "
+                                 f"{np.shape(action)}")
+        self._action[0] = a
+        core = self.core
+        core.step(self._action, self._active)
+        if self.render_mode:
+            self._record()
+        return (core.obs[0].copy(), float(core.reward[0]), bool(core.terminated[0]),
+                bool(core.truncated[0]), core.info(0))
+
+    # --- rendering -------------------------------------------------------------------------
+    def _record(self):
+        c = self.core
+        self._history.append((float(c.k[0]) * c.T, c.z[0, :, 0].copy(), float(c.eps[0])))
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        from .render import render_rgb
+
+        return render_rgb(self.core, self._history)

@@ -1,0 +1,231 @@
+"""Batch state and configuration behind both the single and the vectorised env.
+
+:class:`EnvCore` owns the arrays the compiled kernel (:mod:`contour_env.env.kernel`) reads and
+writes; the Gymnasium classes are thin layers over it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cases import Setup, build_setup
+from . import kernel as K
+
+PARALLEL_MIN_ENVS = 256
+
+TERMINATION_REASONS = {
+    K.STATUS_CONTOUR_LIMIT: "contour_error_limit",
+    K.STATUS_NONFINITE: "non_finite_state",
+}
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Episode, observation and reward settings (SI units). See ContouringEnv for meanings."""
+
+    abort_contour_error_m: float = 5e-3
+    contour_error_scale_m: float = 1e-5
+    w_contour: float = 1.0
+    w_lag: float = 0.0
+    w_effort: float = 0.0
+    error_obs_scale_m: float = 1e-4
+    velocity_error_obs_scale_m_s: float = 1e-2
+    curvature_obs_scale_m: float = 0.05
+    preview_times_s: tuple = (0.005, 0.02, 0.05)
+    measurement_noise_std_m: float = 0.0
+    disturbance_force_N: float = 0.0
+    obs_clip: float = 10.0
+
+    def __post_init__(self):
+        positive = ("abort_contour_error_m", "contour_error_scale_m", "error_obs_scale_m",
+                    "velocity_error_obs_scale_m_s", "curvature_obs_scale_m", "obs_clip")
+        nonneg = ("w_contour", "w_lag", "w_effort", "measurement_noise_std_m",
+                  "disturbance_force_N")
+        for name in positive + nonneg:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise ValueError(f"{name}: expected a number, got {value!r}")
+            if not math.isfinite(value) or value < 0 or (name in positive and value == 0):
+                rule = "> 0" if name in positive else ">= 0"
+                raise ValueError(f"{name}: must be finite and {rule}, got {value!r}")
+        times = tuple(float(t) for t in self.preview_times_s)
+        if not times or any(not math.isfinite(t) or t <= 0 for t in times):
+            raise ValueError(f"preview_times_s: non-empty, every time > 0 s, got {times}")
+        object.__setattr__(self, "preview_times_s", times)
+
+
+class EnvCore:
+    """A batch of ``n_envs`` contouring envs on one setup (case, plant, path, reference)."""
+
+    def __init__(self, setup: Setup, config: EnvConfig, n_envs: int = 1):
+        if not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
+            raise ValueError(f"num_envs: must be an integer >= 1, got {n_envs!r}")
+        self.setup = setup
+        self.config = config
+        self.n_envs = int(n_envs)
+        plant = setup.plant
+        ref = setup.reference
+        self.dim = plant.n_axes
+        self.T = plant.servo_period_s
+        self.n_steps = ref.n_steps
+        self.packed = plant.packed_batch(self.n_envs)
+        self.force_limit = plant.params.force_limit_N.copy()
+        # reference tables, in the kernel's layout
+        self.ref_pav = np.ascontiguousarray(
+            np.stack([ref.position, ref.velocity, ref.acceleration], axis=1))
+        self.frame = np.ascontiguousarray(ref.frame)
+        self.scal = np.ascontiguousarray(
+            np.stack([ref.feedrate, ref.feed_accel, ref.curvature, ref.torsion], axis=1))
+        path = setup.path
+        self.seg_type = np.ascontiguousarray(path.seg_type, dtype=np.int64)
+        self.seg_data = np.ascontiguousarray(path.seg_data, dtype=np.float64)
+        self.seg_bounds = np.ascontiguousarray(path.seg_bounds, dtype=np.float64)
+        preview = np.array([max(1, round(t / self.T)) for t in config.preview_times_s],
+                           dtype=np.int64)
+        self.preview = preview
+        cfg = np.zeros(K.CFG_SIZE)
+        cfg[K.C_T] = self.T
+        cfg[K.C_ERR_SCALE] = config.error_obs_scale_m
+        cfg[K.C_VERR_SCALE] = config.velocity_error_obs_scale_m_s
+        cfg[K.C_FEED_SCALE] = setup.feedrate_m_s
+        cfg[K.C_ACC_SCALE] = setup.max_accel_m_s2
+        cfg[K.C_CURV_SCALE] = config.curvature_obs_scale_m
+        cfg[K.C_W_CONTOUR] = config.w_contour
+        cfg[K.C_W_LAG] = config.w_lag
+        cfg[K.C_W_EFFORT] = config.w_effort
+        cfg[K.C_EPS_SCALE] = config.contour_error_scale_m
+        cfg[K.C_ABORT] = config.abort_contour_error_m
+        cfg[K.C_NOISE_STD] = config.measurement_noise_std_m
+        cfg[K.C_DIST_AMP] = config.disturbance_force_N
+        cfg[K.C_OBS_CLIP] = config.obs_clip
+        self.cfg = cfg
+        self.icfg = np.array([self.n_steps, plant.params.friction_substeps,
+                              int(plant.params.computation_delay)], dtype=np.int64)
+        self.obs_dim = 3 * self.dim + 3 + len(preview) * self.dim
+        B, A = self.n_envs, self.dim
+        ns = plant.initial_state(np.zeros((1, A))).z.shape[2]
+        self.z = np.zeros((B, A, ns))
+        self.ax = np.zeros((B, K.AX_SIZE, A))
+        self.k = np.zeros(B, dtype=np.int64)
+        self.eps = np.zeros(B)
+        self.est = np.zeros((B, A))
+        self.status = np.zeros(B, dtype=np.int64)
+        self.seed = np.zeros(B, dtype=np.uint64)
+        self.obs = np.zeros((B, self.obs_dim), dtype=np.float32)
+        self.reward = np.zeros(B)
+        self.terminated = np.zeros(B, dtype=bool)
+        self.truncated = np.zeros(B, dtype=bool)
+        self.active = np.ones(B, dtype=bool)
+        self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
+        self.action = np.zeros((B, A))
+        self.scratch = np.zeros((B, 3, ns))
+        # threads pay off only for large batches; results are identical either way
+        self._step_kernel = K.env_step_parallel if B >= PARALLEL_MIN_ENVS else K.env_step
+
+    # --- episode control -------------------------------------------------------------------
+    def reset_env(self, b: int, noise_seed: int) -> None:
+        self.seed[b] = np.uint64(noise_seed % (1 << 64))
+        p = self.packed
+        K.env_reset(b, self.cfg, self.preview, self.z, self.ax, self.k, self.eps, self.est,
+                    self.status, self.seed, self.ref_pav, self.frame, self.scal, self.seg_type,
+                    self.seg_data, self.seg_bounds, p.nl, p.pidx, self.stuck0, self.obs,
+                    self.n_steps)
+        self.reward[b] = 0.0
+        self.terminated[b] = False
+        self.truncated[b] = False
+
+    def step(self, action: np.ndarray, active: np.ndarray) -> None:
+        """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf."""
+        p = self.packed
+        bad = self._step_kernel(self.cfg, self.icfg, self.preview, self.z, self.ax, self.k, self.eps,
+                         self.est, self.status, self.seed, self.ref_pav, self.frame, self.scal,
+                         self.seg_type, self.seg_data, self.seg_bounds, p.mat_T, p.mat_h, p.cont,
+                         p.nl, p.pidx, action, active, self.obs, self.reward, self.terminated,
+                         self.truncated, self.scratch)
+        if bad >= 0:
+            raise ValueError(
+                f"action: must be finite, got {action[bad].tolist()} (env {bad}); the action is "
+                "the per-axis command in [-1, 1] of the force limit"
+            )
+
+    # --- readouts (physical units) ---------------------------------------------------------
+    def info(self, b: int) -> dict:
+        """The per-step ``info`` dict of env b (see ContouringEnv for the keys)."""
+        kk = min(int(self.k[b]), self.n_steps - 1)
+        A = self.dim
+        position = self.z[b, :, 0].copy()
+        reference = self.ref_pav[kk, 0, :A].copy()
+        applied = self.ax[b, K.AX_APPLIED].copy()
+        status = int(self.status[b])
+        return {
+            "time": float(self.k[b]) * self.T,
+            "step": int(self.k[b]),
+            "position": position,
+            "measured_position": self.ax[b, K.AX_MEAS].copy(),
+            "velocity": self.z[b, :, 1].copy(),
+            "reference": reference,
+            "contour_error": float(self.eps[b]),
+            "contour_error_estimate": self.est[b].copy(),
+            "tracking_error": reference - position,
+            "force": applied,
+            "saturated": np.abs(applied) >= self.force_limit * (1 - 1e-12),
+            "termination_reason": TERMINATION_REASONS.get(status),
+        }
+
+    def batch_info(self) -> dict:
+        """Same keys as :meth:`info`, stacked over the batch (leading axis B)."""
+        kk = np.minimum(self.k, self.n_steps - 1)
+        A = self.dim
+        position = self.z[:, :, 0].copy()
+        reference = self.ref_pav[kk, 0, :A]
+        applied = self.ax[:, K.AX_APPLIED].copy()
+        reasons = np.array([TERMINATION_REASONS.get(int(s), "") for s in self.status])
+        return {
+            "time": self.k * self.T,
+            "step": self.k.copy(),
+            "position": position,
+            "measured_position": self.ax[:, K.AX_MEAS].copy(),
+            "velocity": self.z[:, :, 1].copy(),
+            "reference": reference,
+            "contour_error": self.eps.copy(),
+            "contour_error_estimate": self.est.copy(),
+            "tracking_error": reference - position,
+            "force": applied,
+            "saturated": np.abs(applied) >= self.force_limit * (1 - 1e-12),
+            "termination_reason": reasons,
+        }
+
+    def signals(self, b: int = 0) -> dict:
+        """What a real servo controller measures at the current sample of env b (SI units):
+        measured position and velocity (encoder, backward difference), the reference position,
+        velocity, acceleration, the path frame (columns t n b), curvature, torsion, feedrate,
+        the servo period and the nominal plant parameters."""
+        kk = min(int(self.k[b]), self.n_steps - 1)
+        A = self.dim
+        return {
+            "time": float(self.k[b]) * self.T,
+            "step": int(self.k[b]),
+            "measured_position": self.ax[b, K.AX_MEAS].copy(),
+            "measured_velocity": self.ax[b, K.AX_VEL].copy(),
+            "reference_position": self.ref_pav[kk, 0, :A].copy(),
+            "reference_velocity": self.ref_pav[kk, 1, :A].copy(),
+            "reference_acceleration": self.ref_pav[kk, 2, :A].copy(),
+            "frame": self.frame[kk, :A, :A].copy(),
+            "curvature": float(self.scal[kk, 2]),
+            "torsion": float(self.scal[kk, 3]),
+            "feedrate": float(self.scal[kk, 0]),
+            "servo_period_s": self.T,
+        }
+
+
+def make_core(case=None, plant=None, path=None, *, n_envs=1, feedrate_m_s=None,
+              max_accel_m_s2=None, max_jerk_m_s3=None, settle_time_s=None, ideal=False,
+              structural_mode=False, **config) -> EnvCore:
+    setup = build_setup(case, plant, path, feedrate_m_s=feedrate_m_s,
+                        max_accel_m_s2=max_accel_m_s2, max_jerk_m_s3=max_jerk_m_s3,
+                        settle_time_s=settle_time_s, ideal=ideal, structural_mode=structural_mode)
+    return EnvCore(setup, EnvConfig(**config), n_envs=n_envs)
+

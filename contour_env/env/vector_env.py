@@ -1,0 +1,73 @@
+"""Vectorised contouring env: N envs stepped by one compiled call (same kernel as the single env).
+
+Created by ``gymnasium.make_vec("contour_env/Contouring-v0", num_envs=N,
+vectorization_mode="vector_entry_point", ...)``. Autoreset follows Gymnasium's default
+NEXT_STEP mode: the step after an env's episode ends resets it (its action is ignored, reward
+0, not done). ``reset(seed=s)`` seeds env i with s + i, so env i replays exactly what a single
+env reset with seed s + i does (noise and random disturbances are keyed by that seed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .core import EnvCore, make_core
+
+
+class ContouringVectorEnv(VectorEnv):
+    """N independent contouring envs on one case; arguments as :class:`ContouringEnv`."""
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, case=None, plant=None, path=None, *, render_mode=None,
+                 **kwargs):
+        if render_mode is not None:
+            raise ValueError("render_mode: the vector env does not render; use the single env")
+        self.core: EnvCore = make_core(case, plant, path, n_envs=num_envs, **kwargs)
+        self.num_envs = self.core.n_envs
+        n = self.core.dim
+        self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+        clip = self.core.config.obs_clip
+        self.single_observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,),
+                                                   dtype=np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.render_mode = None
+        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._rng = np.random.default_rng()
+
+    @property
+    def setup(self):
+        return self.core.setup
+
+    def reset(self, *, seed=None, options=None):
+        if seed is None:
+            base = int(self._rng.integers(0, 2**62))
+        elif isinstance(seed, (int, np.integer)):
+            base = int(seed)
+            self._rng = np.random.default_rng(base)
+        else:
+            raise ValueError("seed: the vector env takes one integer (env i gets seed + i)")
+        for b in range(self.num_envs):
+            self.core.reset_env(b, base + b)
+        self._needs_reset[:] = False
+        return self.core.obs.copy(), self.core.batch_info()
+
+    def step(self, actions):
+        core = self.core
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, core.dim):
+            raise ValueError(f"actions: expected shape ({self.num_envs}, {core.dim}), got "
+                             f"{a.shape}")
+        resetting = self._needs_reset.copy()
+        active = ~resetting
+        core.step(np.ascontiguousarray(a), active)
+        if resetting.any():
+            for b in np.flatnonzero(resetting):
+                core.reset_env(int(b), int(self._rng.integers(0, 2**62)))
+        self._needs_reset = core.terminated | core.truncated
+        return (core.obs.copy(), core.reward.copy(), core.terminated.copy(),
+                core.truncated.copy(), core.batch_info())

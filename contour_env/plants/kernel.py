@@ -1,0 +1,262 @@
+"""Compiled (numba) plant step shared by the single and the vectorised environment.
+
+One call advances a batch of n-axis feed drives by one servo period T:
+
+- the linear part of each axis exactly (matrix exponential, zero-order hold on u);
+- friction, force ripple and disturbance as a force w on the moving mass, integrated with a
+  first-order-hold predictor–corrector (second order) over the period;
+- near a velocity reversal (or while stuck) the period is split into substeps with a
+  stick–slip treatment: the mass sticks when the non-friction force it feels is within the
+  static friction (no chattering, no energy gain); it breaks away when it exceeds it.
+
+Packed per-(env, axis) arrays (built by :class:`contour_env.plants.model.Plant`):
+
+- ``mat_T``, ``mat_h``: (P, A, ns, ns + 3) = [Phi | Gu | Ga | Gb] over T and over T / n_sub;
+- ``cont``: (P, A, ns + 2) = row 1 of the continuous A, then B_u[1], B_w[1];
+- ``nl``: (P, A, NL_SIZE) nonlinear parameters, indices below;
+
+with P parameter sets (1 for a batch of identical envs: the arrays stay in L1 cache) and an
+int64 map ``pidx`` (B,) from env to parameter set.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# indices into the nonlinear-parameter vector ``nl``
+NL_FC, NL_FS, NL_VS, NL_AR, NL_PR, NL_AD, NL_FD, NL_PHASE, NL_FMAX, NL_RES, NL_MASS = range(11)
+NL_SIZE = 11
+
+TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True, inline="always")
+def friction_force(v, fc, fs, vs):
+    """Stribeck friction (f_c + (f_s − f_c) e^{−(v/v_s)²}) sgn(v), N; zero at v = 0."""
+    if v == 0.0 or fs == 0.0:
+        return 0.0
+    r2 = (v / vs) * (v / vs)
+    mag = fc
+    # Beyond 6 v_s the Stribeck term is below 3e-16 of (f_s − f_c): skip the exponential.
+    # The one-trip loop (instead of an if) stops LLVM from speculating the exp call on every
+    # path, which made the common case several times slower.
+    for _ in range(1 if r2 <= 36.0 else 0):
+        mag += (fs - fc) * math.exp(-r2)
+    return mag if v > 0.0 else -mag
+
+
+@njit(cache=True, inline="always")
+def external_force(x, t, nl, p, i):
+    """Ripple + disturbance (N) acting against the drive of axis i (parameter set p), at
+    position x (m) and time t (s)."""
+    f = 0.0
+    # one-trip loops rather than ifs: LLVM speculates an if-guarded sin (computing it even when
+    # the amplitude is zero); a loop it leaves alone
+    for _ in range(1 if nl[p, i, NL_AR] != 0.0 else 0):
+        f += nl[p, i, NL_AR] * math.sin(TWO_PI * x / nl[p, i, NL_PR])
+    for _ in range(1 if nl[p, i, NL_AD] != 0.0 else 0):
+        f += nl[p, i, NL_AD] * math.sin(TWO_PI * nl[p, i, NL_FD] * t + nl[p, i, NL_PHASE])
+    return f
+
+
+@njit(cache=True, inline="always")
+def _advance_n(z, out, mat, p, i, u, w0, w1, ns):
+    for r in range(ns):
+        acc = mat[p, i, r, ns] * u + mat[p, i, r, ns + 1] * w0 + mat[p, i, r, ns + 2] * w1
+        for c in range(ns):
+            acc += mat[p, i, r, c] * z[c]
+        out[r] = acc
+
+
+@njit(cache=True, inline="always")
+def _advance(z, out, mat, p, i, u, w0, w1, ns):
+    # out = Phi z + Gu u + Ga w0 + Gb w1, with the matrices of axis i, parameter set p.
+    # Literal sizes let the compiler unroll the small mat-vec (about 3x faster than a loop
+    # over a run-time size).
+    if ns == 2:
+        _advance_n(z, out, mat, p, i, u, w0, w1, 2)
+    elif ns == 3:
+        _advance_n(z, out, mat, p, i, u, w0, w1, 3)
+    elif ns == 4:
+        _advance_n(z, out, mat, p, i, u, w0, w1, 4)
+    else:
+        _advance_n(z, out, mat, p, i, u, w0, w1, 5)
+
+
+@njit(cache=True, inline="always")
+def _nonfriction_force(z, u, wnf, cont, p, i, ns):
+    # Force on the moving mass excluding friction: m * (A[1,:] z + B_u[1] u + B_w[1] wnf).
+    acc = cont[p, i, ns] * u + cont[p, i, ns + 1] * wnf
+    for c in range(ns):
+        acc += cont[p, i, c] * z[c]
+    return acc / cont[p, i, ns + 1]
+
+
+@njit(cache=True, inline="always")
+def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra):
+    """Advance one axis state z (1-D scratch copy, in place) by T seconds with the held force
+    command u (N); matrices and parameters of axis i, parameter set p (full packed arrays,
+    indexed, so no views are created: this function is inlined into the batch loops).
+
+    ``w_extra`` is an additional force on the moving mass held over the period (N), e.g. a
+    random disturbance. Returns the new stuck flag (1.0 while held by static friction).
+    """
+    ns = z.shape[0]
+    fc = nl[p, i, NL_FC]
+    fs = nl[p, i, NL_FS]
+    vs = nl[p, i, NL_VS]
+    v0 = z[1]
+    if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
+        # whole period, first-order-hold predictor–corrector
+        w0 = -(friction_force(v0, fc, fs, vs) + (external_force(z[0], t0, nl, p, i) - w_extra))
+        _advance(z, tmp, mat_T, p, i, u, w0, w0, ns)
+        v1 = tmp[1]
+        w1 = -(friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t0 + T, nl, p, i) - w_extra))
+        if w1 != w0:  # equal when w does not depend on the state (e.g. pure Coulomb at speed)
+            _advance(z, tmp, mat_T, p, i, u, w0, w1, ns)
+        v2 = tmp[1]
+        # accepted unless the velocity changes sign (reversal: substeps with stick–slip) or
+        # crosses the Stribeck region in large steps (friction then varies too fast)
+        if fs == 0.0 or ((v0 > 0.0 and v1 > 0.0 and v2 > 0.0) or (v0 < 0.0 and v1 < 0.0
+                                                                  and v2 < 0.0)) and (
+            abs(v2 - v0) < 0.5 * vs or min(abs(v0), abs(v2)) > 3.0 * vs
+        ):
+            for r in range(ns):
+                z[r] = tmp[r]
+            return 0.0
+    return _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2,
+                           w_extra)
+
+
+@njit(cache=True)
+def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2,
+                    w_extra):
+    # Stuck, breaking away, or near a velocity reversal: kept out of line so the common
+    # moving case stays small where it is inlined.
+    ns = z.shape[0]
+    fc = nl[p, i, NL_FC]
+    fs = nl[p, i, NL_FS]
+    vs = nl[p, i, NL_VS]
+    v0 = z[1]
+    if stuck == 0.0 and v0 == 0.0 and fs > 0.0:
+        stuck = 1.0
+    if stuck != 0.0:
+        # held by static friction over the whole period if the non-friction force stays within
+        # f_s at both ends of the period (the usual case at rest: no substeps needed)
+        wnf = -(external_force(z[0], t0, nl, p, i) - w_extra)
+        f_nf = _nonfriction_force(z, u, wnf, cont, p, i, ns)
+        if abs(f_nf) <= fs:
+            _advance(z, tmp, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+            tmp[0] = z[0]
+            tmp[1] = 0.0
+            wnf1 = -(external_force(z[0], t0 + T, nl, p, i) - w_extra)
+            if abs(_nonfriction_force(tmp, u, wnf1, cont, p, i, ns)) <= fs:
+                for r in range(ns):
+                    z[r] = tmp[r]
+                return 1.0
+    h = T / n_sub
+    for j in range(n_sub):
+        t = t0 + j * h
+        if stuck == 0.0 and z[1] == 0.0 and fs > 0.0:
+            stuck = 1.0
+        if stuck != 0.0:
+            wnf = -(external_force(z[0], t, nl, p, i) - w_extra)
+            f_nf = _nonfriction_force(z, u, wnf, cont, p, i, ns)
+            if abs(f_nf) <= fs:
+                x_hold = z[0]
+                _advance(z, tmp, mat_h, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+                for r in range(ns):
+                    z[r] = tmp[r]
+                z[0] = x_hold
+                z[1] = 0.0
+                continue
+            # break away in the direction of the net force; friction starts at f_s
+            stuck = 0.0
+            direction = 1.0 if f_nf > 0.0 else -1.0
+            w0 = wnf - direction * fs
+            _advance(z, tmp, mat_h, p, i, u, w0, w0, ns)
+            v1 = tmp[1]
+            if v1 * direction > 0.0:
+                w1 = -(friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t + h, nl, p, i) - w_extra))
+                _advance(z, tmp, mat_h, p, i, u, w0, w1, ns)
+            for r in range(ns):
+                z[r] = tmp[r]
+            if z[1] * direction <= 0.0:
+                z[1] = 0.0
+                stuck = 1.0
+            continue
+        v0 = z[1]
+        f0 = friction_force(v0, fc, fs, vs)
+        w0 = -(f0 + (external_force(z[0], t, nl, p, i) - w_extra))
+        _advance(z, tmp, mat_h, p, i, u, w0, w0, ns)
+        v1 = tmp[1]
+        if v0 * v1 > 0.0:
+            w1 = -(friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t + h, nl, p, i) - w_extra))
+            _advance(z, tmp, mat_h, p, i, u, w0, w1, ns)
+            v1 = tmp[1]
+        if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
+            for r in range(ns):
+                z[r] = tmp[r]
+            continue
+        # velocity reversal inside the substep: locate it by interpolation, test for sticking
+        alpha = v0 / (v0 - v1)
+        for r in range(ns):
+            tmp2[r] = z[r] + alpha * (tmp[r] - z[r])
+        tmp2[1] = 0.0
+        t_c = t + alpha * h
+        wnf = -(external_force(tmp2[0], t_c, nl, p, i) - w_extra)
+        f_nf = _nonfriction_force(tmp2, u, wnf, cont, p, i, ns)
+        if abs(f_nf) <= fs:
+            for r in range(ns):
+                z[r] = tmp2[r]
+            stuck = 1.0
+            continue
+        # slips through: friction reverses at t_c; use its time average over the substep
+        f_after = fs if f_nf > 0.0 else -fs
+        f_avg = alpha * f0 + (1.0 - alpha) * f_after
+        w = -(f_avg + (external_force(z[0], t, nl, p, i) - w_extra))
+        _advance(z, tmp, mat_h, p, i, u, w, w, ns)
+        for r in range(ns):
+            z[r] = tmp[r]
+    return stuck
+
+
+@njit(cache=True)
+def plant_step_batch(z, stuck, u_pending, action_force, t0, T, n_sub, delay, mat_T, mat_h, cont,
+                     nl, pidx, applied_out, w_extra):
+    """Advance every env of the batch by one servo period, in place.
+
+    z (B, A, ns), stuck (B, A), u_pending (B, A): state; pidx (B,) int64: the parameter set
+    (first index of mat_T, mat_h, cont, nl) of each env; action_force (B, A): the command
+    computed at this sample, N (or the velocity-command unit). With ``delay`` the command
+    applied over this period is the previous one (``u_pending``) and this one is stored.
+    applied_out (B, A) receives the applied (saturated) command; w_extra (B, A) is an extra
+    force on each mass held over the period (N; zeros for none).
+    """
+    n_env, n_axes, ns = z.shape
+    tmp = np.empty(ns)
+    tmp2 = np.empty(ns)
+    cur = np.empty(ns)
+    for b in range(n_env):
+        p = pidx[b]
+        for i in range(n_axes):
+            if delay:
+                u = u_pending[b, i]
+                u_pending[b, i] = action_force[b, i]
+            else:
+                u = action_force[b, i]
+            fmax = nl[p, i, NL_FMAX]
+            if u > fmax:
+                u = fmax
+            elif u < -fmax:
+                u = -fmax
+            applied_out[b, i] = u
+            for r in range(ns):
+                cur[r] = z[b, i, r]
+            stuck[b, i] = axis_step(cur, stuck[b, i], u, t0, T, n_sub, mat_T, mat_h, cont, nl, p,
+                                    i, tmp, tmp2, w_extra[b, i])
+            for r in range(ns):
+                z[b, i, r] = cur[r]

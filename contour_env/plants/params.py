@@ -1,0 +1,281 @@
+"""Feed-drive plant parameters: the per-axis model of REFERENCE §1 and the effects a textbook
+model leaves out (delay, current-loop lag, friction, ripple, nominal/true mismatch, two-mass mode).
+
+Per axis i (SI units):
+
+    m_i ẍ_i + b_i ẋ_i + f_friction,i(ẋ_i) + f_ripple,i(x_i) + d_i(t) = sat(u_i)
+
+    f_friction(v) = (f_c + (f_s − f_c) exp(−(v / v_s)²)) sgn(v)      (Stribeck, Chen & Lee 2020)
+    f_ripple(x)   = A_r sin(2π x / P_r)                               (position-periodic)
+    d(t)          = A_d sin(2π f_d t + φ_i)                           (bounded disturbance)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+INPUT_KINDS = ("force", "velocity-command")
+
+
+def _axis_array(name: str, value, n_axes: int, *, positive=False, nonneg=False) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(n_axes, float(arr))
+    if arr.shape != (n_axes,):
+        raise ValueError(f"{name}: expected a scalar or {n_axes} per-axis values, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: values must be finite, got {arr.tolist()}")
+    if positive and np.any(arr <= 0):
+        raise ValueError(f"{name}: must be > 0 on every axis, got {arr.tolist()}")
+    if nonneg and np.any(arr < 0):
+        raise ValueError(f"{name}: must be >= 0 on every axis, got {arr.tolist()}")
+    return arr
+
+
+@dataclass(frozen=True)
+class PlantParams:
+    """Physical parameters of an n-axis feed drive, one value per axis (SI units).
+
+    Attributes
+    ----------
+    name : str
+        Plant name (catalogue key or ``"custom"``).
+    axis_names : tuple of str
+        e.g. ``("x", "y")``; its length is the number of axes (2 or 3).
+    mass_kg : (n,) float > 0
+        Moving mass m (for a rotary axis: J/ℓ²; for a velocity-command drive: τ/K).
+    viscous_Ns_m : (n,) float >= 0
+        Viscous friction b (rotary: B/ℓ²; velocity-command drive: 1/K).
+    coulomb_N, static_N : (n,) float >= 0
+        Coulomb and static (breakaway) friction; static >= coulomb. Zero: no friction.
+    stribeck_velocity_m_s : (n,) float > 0
+        Stribeck velocity v_s.
+    ripple_amplitude_N : (n,) float >= 0, ripple_period_m : (n,) float > 0
+        Position-periodic force ripple.
+    disturbance_amplitude_N : (n,) float >= 0, disturbance_frequency_hz : (n,) float >= 0
+        Deterministic bounded disturbance d(t) = A sin(2π f t + φ_i), φ_i = i·π/2.
+    force_limit_N : (n,) float > 0
+        Actuator saturation |sat(u)| <= limit. The env's action 1.0 equals this limit.
+    encoder_resolution_m : (n,) float >= 0
+        Quantisation step of the position measurement (0: ideal measurement).
+    servo_period_s : float > 0
+        Controller sampling period T; the plant input is held over T (zero-order hold).
+    input_kind : "force" or "velocity-command"
+        What the actuator command is (Jee 2007's drives take a velocity command; with
+        m = τ/K, b = 1/K the same equation holds with u in K-normalised units).
+    current_loop_time_constant_s : (n,) float >= 0
+        First-order lag between command and applied force (0: none).
+    computation_delay : bool
+        Command computed at sample k is applied from sample k+1 (one servo period).
+    structural_stiffness_N_m : (n,) float >= 0
+        Axial two-mass ball-screw model: 0 disables it; >0 splits the mass into a motor side
+        and a load (table) side joined by this stiffness.
+    structural_damping_Ns_m : (n,) float >= 0, load_mass_fraction : (n,) float in (0, 1)
+        Damping of that spring and the share of ``mass_kg`` on the load side.
+    friction_substeps : int >= 1
+        Substeps per servo period used near velocity reversals (stick–slip treatment).
+    notes : str
+        Where the numbers come from.
+    """
+
+    name: str
+    axis_names: tuple
+    mass_kg: np.ndarray
+    viscous_Ns_m: np.ndarray
+    coulomb_N: np.ndarray
+    static_N: np.ndarray
+    stribeck_velocity_m_s: np.ndarray
+    ripple_amplitude_N: np.ndarray
+    ripple_period_m: np.ndarray
+    disturbance_amplitude_N: np.ndarray
+    disturbance_frequency_hz: np.ndarray
+    force_limit_N: np.ndarray
+    encoder_resolution_m: np.ndarray
+    servo_period_s: float
+    input_kind: str = "force"
+    current_loop_time_constant_s: np.ndarray = field(default=None)
+    computation_delay: bool = False
+    structural_stiffness_N_m: np.ndarray = field(default=None)
+    structural_damping_Ns_m: np.ndarray = field(default=None)
+    load_mass_fraction: np.ndarray = field(default=None)
+    friction_substeps: int = 20
+    notes: str = ""
+
+    def __post_init__(self):
+        n = len(self.axis_names)
+        if n not in (2, 3):
+            raise ValueError(f"axis_names: a plant has 2 or 3 axes, got {n}")
+        s = object.__setattr__
+        s(self, "axis_names", tuple(str(a) for a in self.axis_names))
+        zeros = np.zeros(n)
+        spec = {
+            "mass_kg": dict(positive=True),
+            "viscous_Ns_m": dict(nonneg=True),
+            "coulomb_N": dict(nonneg=True),
+            "static_N": dict(nonneg=True),
+            "stribeck_velocity_m_s": dict(positive=True),
+            "ripple_amplitude_N": dict(nonneg=True),
+            "ripple_period_m": dict(positive=True),
+            "disturbance_amplitude_N": dict(nonneg=True),
+            "disturbance_frequency_hz": dict(nonneg=True),
+            "force_limit_N": dict(positive=True),
+            "encoder_resolution_m": dict(nonneg=True),
+            "current_loop_time_constant_s": dict(nonneg=True),
+            "structural_stiffness_N_m": dict(nonneg=True),
+            "structural_damping_Ns_m": dict(nonneg=True),
+            "load_mass_fraction": dict(positive=True),
+        }
+        defaults = {
+            "current_loop_time_constant_s": zeros,
+            "structural_stiffness_N_m": zeros,
+            "structural_damping_Ns_m": zeros,
+            "load_mass_fraction": np.full(n, 0.5),
+        }
+        for key, kw in spec.items():
+            value = getattr(self, key)
+            if value is None:
+                value = defaults[key]
+            s(self, key, _axis_array(key, value, n, **kw))
+        if np.any(self.static_N < self.coulomb_N):
+            raise ValueError(
+                f"static_N must be >= coulomb_N on every axis, got static {self.static_N.tolist()} "
+                f"and coulomb {self.coulomb_N.tolist()}"
+            )
+        if np.any(self.load_mass_fraction >= 1.0):
+            raise ValueError("load_mass_fraction: must be in (0, 1)")
+        if not (math.isfinite(self.servo_period_s) and self.servo_period_s > 0):
+            raise ValueError(f"servo_period_s: must be > 0 (seconds), got {self.servo_period_s}")
+        s(self, "servo_period_s", float(self.servo_period_s))
+        if self.input_kind not in INPUT_KINDS:
+            raise ValueError(f"input_kind: must be one of {INPUT_KINDS}, got {self.input_kind!r}")
+        if int(self.friction_substeps) < 1:
+            raise ValueError(f"friction_substeps: must be >= 1, got {self.friction_substeps}")
+        s(self, "friction_substeps", int(self.friction_substeps))
+        for arr_name in spec:
+            getattr(self, arr_name).setflags(write=False)
+
+    @property
+    def n_axes(self) -> int:
+        return len(self.axis_names)
+
+    @property
+    def has_friction(self) -> bool:
+        return bool(np.any(self.static_N > 0) or np.any(self.coulomb_N > 0))
+
+    @property
+    def has_structural_mode(self) -> bool:
+        return bool(np.any(self.structural_stiffness_N_m > 0))
+
+    def replace(self, **changes) -> PlantParams:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def scaled(self, factors: Mapping[str, float | np.ndarray]) -> PlantParams:
+        """A copy with fields multiplied by factors (scalar or per axis), e.g. for mismatch."""
+        changes = {}
+        for key, f in factors.items():
+            if key not in PER_AXIS_FIELDS:
+                raise ValueError(f"scaled: unknown per-axis parameter {key!r}; known: {PER_AXIS_FIELDS}")
+            changes[key] = getattr(self, key) * np.asarray(f, dtype=np.float64)
+        return self.replace(**changes)
+
+    def to_dict(self) -> dict:
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            out[f.name] = v.tolist() if isinstance(v, np.ndarray) else v
+        out["axis_names"] = list(self.axis_names)
+        return out
+
+
+PER_AXIS_FIELDS = (
+    "mass_kg",
+    "viscous_Ns_m",
+    "coulomb_N",
+    "static_N",
+    "stribeck_velocity_m_s",
+    "ripple_amplitude_N",
+    "ripple_period_m",
+    "disturbance_amplitude_N",
+    "disturbance_frequency_hz",
+    "force_limit_N",
+    "encoder_resolution_m",
+    "current_loop_time_constant_s",
+    "structural_stiffness_N_m",
+    "structural_damping_Ns_m",
+    "load_mass_fraction",
+)
+
+# Keys accepted by ``params_from_mapping`` (plain names users type) -> field names.
+MAPPING_KEYS = {
+    "mass": "mass_kg",
+    "viscous": "viscous_Ns_m",
+    "coulomb": "coulomb_N",
+    "static": "static_N",
+    "stribeck_velocity": "stribeck_velocity_m_s",
+    "ripple_amplitude": "ripple_amplitude_N",
+    "ripple_period": "ripple_period_m",
+    "disturbance_amplitude": "disturbance_amplitude_N",
+    "disturbance_frequency": "disturbance_frequency_hz",
+    "force_limit": "force_limit_N",
+    "encoder_resolution": "encoder_resolution_m",
+    "servo_period": "servo_period_s",
+    "current_loop_time_constant": "current_loop_time_constant_s",
+    "structural_stiffness": "structural_stiffness_N_m",
+    "structural_damping": "structural_damping_Ns_m",
+}
+
+
+def params_from_mapping(mapping: Mapping) -> PlantParams:
+    """Build custom plant parameters from a plain mapping.
+
+    Keys (per-axis values are lists, scalars apply to every axis), SI units:
+    ``axes`` (list of names, default ``["x", "y"]``), ``mass`` (kg, required), ``viscous``
+    (N s/m), ``coulomb`` / ``static`` (N), ``stribeck_velocity`` (m/s), ``ripple_amplitude``
+    (N), ``ripple_period`` (m), ``disturbance_amplitude`` (N), ``disturbance_frequency`` (Hz),
+    ``force_limit`` (N, required), ``encoder_resolution`` (m), ``servo_period`` (s, required),
+    ``current_loop_time_constant`` (s), ``computation_delay`` (bool), ``structural_stiffness``
+    (N/m), ``structural_damping`` (N s/m), ``load_mass_fraction``, ``input_kind``,
+    ``friction_substeps``, ``name``. The full field names of :class:`PlantParams` work too.
+    """
+    if not isinstance(mapping, Mapping):
+        raise ValueError(f"plant: a custom plant is a mapping of parameters, got {type(mapping).__name__}")
+    known_fields = {f.name for f in fields(PlantParams)}
+    kw: dict = {}
+    for key, value in mapping.items():
+        if key == "axes":
+            kw["axis_names"] = tuple(value)
+        elif key in MAPPING_KEYS:
+            kw[MAPPING_KEYS[key]] = value
+        elif key in known_fields:
+            kw[key] = value
+        else:
+            allowed = sorted(set(MAPPING_KEYS) | {"axes", "computation_delay", "input_kind",
+                                                  "friction_substeps", "name",
+                                                  "load_mass_fraction"})
+            raise ValueError(f"plant: unknown parameter {key!r}; allowed: {', '.join(allowed)}")
+    for req in ("mass_kg", "force_limit_N", "servo_period_s"):
+        if req not in kw:
+            inv = {v: k for k, v in MAPPING_KEYS.items()}
+            raise ValueError(f"plant: custom parameters need {inv[req]!r}")
+    kw.setdefault("axis_names", ("x", "y"))
+    n = len(kw["axis_names"])
+    kw.setdefault("name", "custom")
+    for key, default in (
+        ("viscous_Ns_m", 0.0),
+        ("coulomb_N", 0.0),
+        ("static_N", None),
+        ("stribeck_velocity_m_s", 0.01),
+        ("ripple_amplitude_N", 0.0),
+        ("ripple_period_m", 0.03),
+        ("disturbance_amplitude_N", 0.0),
+        ("disturbance_frequency_hz", 0.0),
+        ("encoder_resolution_m", 0.0),
+    ):
+        if key not in kw:
+            kw[key] = kw["coulomb_N"] if key == "static_N" else np.full(n, default)
+    return PlantParams(**kw)

@@ -1,0 +1,61 @@
+"""The vectorised env gives exactly the single env's trajectories for the same actions."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import contour_env  # noqa: F401
+from contour_env import ENV_ID
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [dict(case="hsm2-circle-II"),
+     dict(case="jee-circle3d"),
+     dict(case="sharp-corner", measurement_noise_std_m=1e-6, disturbance_force_N=3.0)],
+)
+def test_vector_env_equals_single_envs(kw):
+    n, steps, seed = 4, 400, 11
+    rng = np.random.default_rng(5)
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+    dim = venv.single_action_space.shape[0]
+    actions = rng.uniform(-0.05, 0.05, (steps, n, dim)).astype(np.float32)
+    vobs, vinfo = venv.reset(seed=seed)
+    singles = [gym.make(ENV_ID, **kw) for _ in range(n)]
+    sobs = [e.reset(seed=seed + i)[0] for i, e in enumerate(singles)]
+    np.testing.assert_array_equal(vobs, np.stack(sobs))
+    for t in range(steps):
+        vobs, vr, vterm, vtrunc, vinfo = venv.step(actions[t])
+        for i, e in enumerate(singles):
+            obs, r, term, trunc, info = e.step(actions[t, i])
+            assert np.array_equal(vobs[i], obs)
+            assert vr[i] == r
+            assert vterm[i] == term and vtrunc[i] == trunc
+            assert np.array_equal(vinfo["position"][i], info["position"])
+            assert vinfo["contour_error"][i] == info["contour_error"]
+
+
+def test_vector_env_autoresets_next_step():
+    venv = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point",
+                        case="hsm2-circle-I", abort_contour_error_m=1e-4)
+    venv.reset(seed=0)
+    actions = np.array([[1.0, 1.0], [0.0, 0.0]], dtype=np.float32)
+    for _ in range(2000):
+        _, _, term, trunc, info = venv.step(actions)
+        if term[0]:
+            break
+    assert term[0] and info["termination_reason"][0] == "contour_error_limit"
+    obs, r, term, trunc, info = venv.step(actions)
+    assert r[0] == 0.0 and not term[0] and info["step"][0] == 0
+
+
+def test_vector_env_rejects_bad_actions():
+    venv = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point",
+                        case="hsm2-circle-I")
+    venv.reset(seed=0)
+    a = np.zeros((3, 2))
+    a[1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"action: must be finite.*env 1"):
+        venv.step(a)
+    with pytest.raises(ValueError, match="actions: expected shape"):
+        venv.step(np.zeros((2, 2)))

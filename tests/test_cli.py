@@ -1,0 +1,53 @@
+"""The contour-env command line, end to end (small cases)."""
+
+import json
+
+import pytest
+
+from contour_env.cli import main
+
+
+def test_cases_lists_every_named_case(capsys):
+    assert main(["cases"]) == 0
+    out = capsys.readouterr().out
+    for name in ("hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "jee-circle3d",
+                 "lm-circle3d", "sharp-corner"):
+        assert name in out
+
+
+def test_run_writes_json_and_plot(tmp_path, capsys):
+    js, png = tmp_path / "r.json", tmp_path / "r.png"
+    assert main(["run", "--case", "hsm2-circle-III", "--json", str(js), "--plot", str(png)]) == 0
+    data = json.loads(js.read_text())
+    assert data["case"] == "hsm2-circle-III"
+    m = data["metrics"]
+    assert m["n_steps"] > 900 and m["max_contour_error_um"] >= 0
+    assert png.stat().st_size > 10_000
+    assert "max_contour_error_um" in capsys.readouterr().out
+
+
+def test_run_gcode_file(tmp_path):
+    f = tmp_path / "sq.nc"
+    f.write_text("G21 G90 G17\nG01 X5 Y0 F300\nG01 X5 Y5\n")
+    js = tmp_path / "g.json"
+    assert main(["run", "--plant", "friction-table", "--gcode", str(f), "--json", str(js)]) == 0
+    assert json.loads(js.read_text())["plant"] == "friction-table"
+
+
+def test_run_unknown_case_is_a_clean_error(capsys):
+    assert main(["run", "--case", "nope"]) == 2
+    assert "unknown case 'nope'" in capsys.readouterr().err
+
+
+def test_gcode_without_plant_is_a_clean_error():
+    with pytest.raises(SystemExit, match="--gcode needs --plant"):
+        main(["run", "--gcode", "x.nc"])
+
+
+def test_bench_small(tmp_path, monkeypatch):
+    from contour_env import bench
+
+    res = bench.run_bench("hsm2-circle-III", seconds=0.05, sizes=(1, 8))
+    assert res["single_env_steps_per_s"] > 0
+    assert [r["num_envs"] for r in res["vector"]] == [1, 8]
+    assert "CartPole" in bench.format_bench(res)
