@@ -122,7 +122,7 @@ def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2
         # crosses the Stribeck region in large steps (friction then varies too fast)
         if fs == 0.0 or ((v0 > 0.0 and v1 > 0.0 and v2 > 0.0) or (v0 < 0.0 and v1 < 0.0
                                                                   and v2 < 0.0)) and (
-            abs(v2 - v0) < 0.5 * vs or min(abs(v0), abs(v2)) > 3.0 * vs
+            abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs
         ):
             for r in range(ns):
                 z[r] = tmp[r]
