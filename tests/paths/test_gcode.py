@@ -4,56 +4,15 @@ from __future__ import annotations
 
 import io
 import math
-
-# --- TEMPORARY stand-ins until contour_env.paths.segments / geometry exist ----------------
-import sys
-import types
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-try:
-    import contour_env.paths.geometry  # noqa: F401
-    import contour_env.paths.segments  # noqa: F401
-except ImportError:
-
-    @dataclass(frozen=True)
-    class _Line:
-        start: np.ndarray
-        end: np.ndarray
-
-    @dataclass(frozen=True)
-    class _Arc:
-        center: np.ndarray
-        u: np.ndarray
-        v: np.ndarray
-        radius: float
-        theta0: float
-        sweep: float
-        pitch: float = 0.0
-
-    class _PG:
-        @classmethod
-        def from_segments(cls, segments, dim=None):
-            obj = cls()
-            obj.segments, obj.dim = segments, dim
-            return obj
-
-    _seg = types.ModuleType("contour_env.paths.segments")
-    _seg.Line, _seg.Arc = _Line, _Arc
-    _geo = types.ModuleType("contour_env.paths.geometry")
-    _geo.PathGeometry = _PG
-    sys.modules["contour_env.paths.segments"] = _seg
-    sys.modules["contour_env.paths.geometry"] = _geo
-# ------------------------------------------------------------------------------------------
-
-from contour_env.paths.geometry import PathGeometry  # noqa: E402
-from contour_env.paths.segments import Arc, Line  # noqa: E402
-
-from contour_env.paths import gcode  # noqa: E402
-from contour_env.paths.gcode import GcodeProgram, parse_gcode, read_gcode  # noqa: E402
+from contour_env.paths import gcode
+from contour_env.paths.gcode import GcodeProgram, parse_gcode, read_gcode
+from contour_env.paths.geometry import PathGeometry
+from contour_env.paths.segments import Arc, Line
 
 DATA = Path(gcode.__file__).resolve().parent.parent / "data"
 MM = 1e-3
