@@ -7,9 +7,8 @@ import os
 import platform
 import time
 
-import numpy as np
-
 import gymnasium as gym
+import numpy as np
 
 from . import ENV_ID
 
@@ -69,8 +68,9 @@ def tracking_actions(case: str, n_steps: int, bandwidth_rad_s: float = 60.0) -> 
     return out
 
 
-def run_bench(case: str = "hsm2-circle-II", *, seconds: float = 2.0, sizes=VECTOR_SIZES,
-              progress=None) -> dict:
+def run_bench(
+    case: str = "hsm2-circle-II", *, seconds: float = 2.0, sizes=VECTOR_SIZES, progress=None
+) -> dict:
     """Measure throughput with the actions of :func:`tracking_actions` replayed (the policy's
     own cost is not part of the measurement, as for CartPole's random actions)."""
     import contour_env  # noqa: F401  (registers the env)
@@ -94,19 +94,20 @@ def run_bench(case: str = "hsm2-circle-II", *, seconds: float = 2.0, sizes=VECTO
     out["cartpole_single_steps_per_s"] = _time_single(cp, cp_actions, seconds)
     out["vector"] = []
     for n in sizes:
-        venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
-                            case=case)
+        venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", case=case)
         steps = len(actions)  # whole episodes: start-up, cruise, reversals, stop
         # every env replays the servo's commands with its own small seeded perturbation
-        acts = (actions[:steps, None, :]
-                * (1.0 + 0.01 * rng.standard_normal((steps, n, dim)))).astype(np.float32)
+        acts = (
+            actions[:steps, None, :] * (1.0 + 0.01 * rng.standard_normal((steps, n, dim)))
+        ).astype(np.float32)
         _time_vector(venv, acts[:5], 0.0)
         rate = _time_vector(venv, acts, seconds)
         cvenv = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
         cacts = rng.integers(0, 2, (min(steps, 500), n))
         crate = _time_vector(cvenv, cacts, seconds)
-        out["vector"].append({"num_envs": n, "env_steps_per_s": rate,
-                              "cartpole_env_steps_per_s": crate})
+        out["vector"].append(
+            {"num_envs": n, "env_steps_per_s": rate, "cartpole_env_steps_per_s": crate}
+        )
         if progress:
             progress(f"vector {n:5d} envs: {rate:,.0f} env-steps/s (CartPole {crate:,.0f})")
     return out
@@ -120,6 +121,8 @@ def format_bench(res: dict) -> str:
         f"{res['cartpole_single_steps_per_s']:16,.0f}",
     ]
     for row in res["vector"]:
-        lines.append(f"{'vector ' + str(row['num_envs']) + ' envs, env-steps/s':28s}"
-                     f"{row['env_steps_per_s']:16,.0f}{row['cartpole_env_steps_per_s']:16,.0f}")
+        lines.append(
+            f"{'vector ' + str(row['num_envs']) + ' envs, env-steps/s':28s}"
+            f"{row['env_steps_per_s']:16,.0f}{row['cartpole_env_steps_per_s']:16,.0f}"
+        )
     return "\n".join(lines)

@@ -12,13 +12,22 @@ DEFAULT_CASE = "hsm2-circle-II"
 
 def _add_target_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--case", help="named case (see `contour-env cases`)")
-    p.add_argument("--plant", help="plant name, with --gcode (hsm2, jee-triaxial, linear-motor, "
-                                   "friction-table)")
+    p.add_argument(
+        "--plant",
+        help="plant name, with --gcode (hsm2, jee-triaxial, linear-motor, friction-table)",
+    )
     p.add_argument("--gcode", help="G-code file (.nc/.gcode/.ngc/.tap) to follow, with --plant")
-    p.add_argument("--feedrate", type=float, default=None,
-                   help="feedrate override, m/s (default: the case's or the program's F words)")
-    p.add_argument("--ideal", action="store_true",
-                   help="textbook plant: no delay, current lag, added friction, ripple, mismatch")
+    p.add_argument(
+        "--feedrate",
+        type=float,
+        default=None,
+        help="feedrate override, m/s (default: the case's or the program's F words)",
+    )
+    p.add_argument(
+        "--ideal",
+        action="store_true",
+        help="textbook plant: no delay, current lag, added friction, ripple, mismatch",
+    )
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
 
 
@@ -26,8 +35,9 @@ def _target_kwargs(args) -> dict:
     if args.case and args.gcode:
         raise SystemExit("error: give --case, or --plant with --gcode, not both")
     if args.gcode and not args.plant:
-        raise SystemExit("error: --gcode needs --plant (hsm2, jee-triaxial, linear-motor, "
-                         "friction-table)")
+        raise SystemExit(
+            "error: --gcode needs --plant (hsm2, jee-triaxial, linear-motor, friction-table)"
+        )
     if args.plant and not args.gcode and not args.case:
         raise SystemExit("error: --plant needs --gcode (or use --case)")
     kw = {"ideal": args.ideal}
@@ -47,8 +57,10 @@ def cmd_cases(args) -> int:
 
     print(f"{'case':18s} {'plant':15s} {'path':10s} {'feedrate':>12s}  notes")
     for spec in CASES.values():
-        print(f"{spec.name:18s} {spec.plant:15s} {spec.path['kind']:10s} "
-              f"{spec.feedrate_m_s:9.4f} m/s  {spec.notes[:70]}…")
+        print(
+            f"{spec.name:18s} {spec.plant:15s} {spec.path['kind']:10s} "
+            f"{spec.feedrate_m_s:9.4f} m/s  {spec.notes[:70]}…"
+        )
         if args.verbose:
             print(f"    {spec.notes}\n    published: {spec.published}")
     return 0
@@ -80,21 +92,34 @@ def cmd_run(args) -> int:
     env = gym.make(ENV_ID, **kw)
     core = env.unwrapped.core
     setup = core.setup
-    print(f"case {setup.name}: plant {setup.plant.name} ({'ideal' if kw['ideal'] else 'realistic'}"
-          f"), path length {setup.path.total_length:.4f} m, feedrate {setup.feedrate_m_s:.4f} m/s,"
-          f" {core.n_steps - 1} steps of {core.T * 1e3:g} ms")
+    print(
+        f"case {setup.name}: plant {setup.plant.name} ({'ideal' if kw['ideal'] else 'realistic'}"
+        f"), path length {setup.path.total_length:.4f} m, feedrate {setup.feedrate_m_s:.4f} m/s,"
+        f" {core.n_steps - 1} steps of {core.T * 1e3:g} ms"
+    )
     policy, label = None, "zero command"
     record = run_episode(env, policy, seed=args.seed)
     metrics = score(record)
     _print_metrics(label, metrics)
-    result = {"case": setup.name, "plant": setup.plant.name, "controller": label,
-              "ideal": bool(kw["ideal"]), "seed": args.seed, "metrics": metrics}
+    result = {
+        "case": setup.name,
+        "plant": setup.plant.name,
+        "controller": label,
+        "ideal": bool(kw["ideal"]),
+        "seed": args.seed,
+        "metrics": metrics,
+    }
     if args.json:
         atomic_write_json(args.json, result)
         print(f"wrote {args.json}")
     if args.plot:
-        plot_runs({label: record}, core.ref_pav[:, 0, :], f"{setup.name} — {label}", args.plot,
-                  {label: metrics})
+        plot_runs(
+            {label: record},
+            core.ref_pav[:, 0, :],
+            f"{setup.name} — {label}",
+            args.plot,
+            {label: metrics},
+        )
         print(f"wrote {args.plot}")
     return 0
 
@@ -114,7 +139,8 @@ def cmd_bench(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="contour-env",
-        description="Multi-axis CNC feed-drive contouring: cases, runs, benchmarks (SI units).")
+        description="Multi-axis CNC feed-drive contouring: cases, runs, benchmarks (SI units).",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("cases", help="list the named cases")
     p.add_argument("-v", "--verbose", action="store_true", help="full notes and published results")

@@ -19,8 +19,7 @@ def _unwrap(env):
     return core
 
 
-def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True
-                ) -> EpisodeRecord:
+def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) -> EpisodeRecord:
     """Run ``env`` from ``reset(seed=seed)`` to the end with ``policy``; return the record."""
     core = _unwrap(env)
     obs, _ = env.reset(seed=seed)
@@ -43,8 +42,9 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True
         if policy is None:
             action = zero
         else:
-            action, state = policy.predict(obs, state=state, episode_start=episode_start,
-                                           deterministic=deterministic)
+            action, state = policy.predict(
+                obs, state=state, episode_start=episode_start, deterministic=deterministic
+            )
             episode_start = np.zeros((1,), dtype=bool)
         obs, _, terminated, truncated, info = env.step(action)
         i = n - 1
@@ -64,10 +64,15 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True
     force = rec["force"][sl]
     limit = core.setup.plant.params.force_limit_N
     return EpisodeRecord(
-        time=rec["time"][sl], contour_error=rec["contour_error"][sl],
-        tracking_error=rec["tracking_error"][sl], force=force,
-        saturated=np.abs(force) >= limit * (1 - 1e-12), position=rec["position"][sl],
-        reference=rec["reference"][sl], force_limit=limit.copy(), termination_reason=reason,
+        time=rec["time"][sl],
+        contour_error=rec["contour_error"][sl],
+        tracking_error=rec["tracking_error"][sl],
+        force=force,
+        saturated=np.abs(force) >= limit * (1 - 1e-12),
+        position=rec["position"][sl],
+        reference=rec["reference"][sl],
+        force_limit=limit.copy(),
+        termination_reason=reason,
         n_steps_planned=n_max,
     )
 

@@ -27,8 +27,10 @@ def splitmix64(x):
 @njit(cache=True)
 def uniform01(seed, step, axis, stream):
     """Uniform in (0, 1) from the counter (seed, step, axis, stream)."""
-    h = splitmix64(uint64(seed) ^ splitmix64(uint64(step) * uint64(8) + uint64(axis)
-                                             + (uint64(stream) << uint64(56))))
+    h = splitmix64(
+        uint64(seed)
+        ^ splitmix64(uint64(step) * uint64(8) + uint64(axis) + (uint64(stream) << uint64(56)))
+    )
     return ((h >> uint64(11)) + 0.5) * _INV_2_53
 
 

@@ -12,8 +12,13 @@ from .io import atomic_save_figure  # noqa: E402
 from .metrics import EpisodeRecord  # noqa: E402
 
 
-def plot_runs(records: dict[str, EpisodeRecord], path_points: np.ndarray, title: str, out,
-              metrics: dict[str, dict] | None = None):
+def plot_runs(
+    records: dict[str, EpisodeRecord],
+    path_points: np.ndarray,
+    title: str,
+    out,
+    metrics: dict[str, dict] | None = None,
+):
     """One figure: path and actual trajectories (error magnified), contour error vs time,
     tracking error vs time. ``records`` maps a label (controller) to its episode."""
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
@@ -22,8 +27,9 @@ def plot_runs(records: dict[str, EpisodeRecord], path_points: np.ndarray, title:
     i, j = sorted(int(v) for v in np.argsort(span)[::-1][:2])
     ax_path.plot(path_points[:, i], path_points[:, j], "k-", lw=1.2, label="path")
     size = float(max(span[i], span[j], 1e-6))
-    peak = max((np.nanmax(r.contour_error) for r in records.values() if len(r.contour_error)),
-               default=0.0)
+    peak = max(
+        (np.nanmax(r.contour_error) for r in records.values() if len(r.contour_error)), default=0.0
+    )
     gain = 0.05 * size / peak if peak > 0 and np.isfinite(peak) else 1.0
     for label, r in records.items():
         mag = r.reference + gain * (r.position - r.reference)
@@ -31,8 +37,10 @@ def plot_runs(records: dict[str, EpisodeRecord], path_points: np.ndarray, title:
         if metrics and label in metrics:
             m = metrics[label]
             if m.get("rms_contour_error_um") is not None:
-                text += (f" (max {m['max_contour_error_um']:.1f} µm, "
-                         f"RMS {m['rms_contour_error_um']:.1f} µm)")
+                text += (
+                    f" (max {m['max_contour_error_um']:.1f} µm, "
+                    f"RMS {m['rms_contour_error_um']:.1f} µm)"
+                )
         ax_path.plot(mag[:, i], mag[:, j], lw=1, label=label)
         ax_eps.plot(r.time, r.contour_error * 1e6, lw=1, label=text)
         te = np.linalg.norm(r.tracking_error, axis=1)

@@ -39,7 +39,8 @@ def reference(plant: Plant, u: np.ndarray) -> np.ndarray:
             def ext(xx, tt, i=i):
                 f = p.ripple_amplitude_N[i] * np.sin(2 * np.pi * xx / p.ripple_period_m[i])
                 f += p.disturbance_amplitude_N[i] * np.sin(
-                    2 * np.pi * p.disturbance_frequency_hz[i] * tt + i * np.pi / 2)
+                    2 * np.pi * p.disturbance_frequency_hz[i] * tt + i * np.pi / 2
+                )
                 return f
 
             while t < t_end - 1e-15:
@@ -57,7 +58,7 @@ def reference(plant: Plant, u: np.ndarray) -> np.ndarray:
 
                 def rhs(tt, y, d=direction, uk=uk, i=i):
                     vv = y[1]
-                    mag = fc[i] + (fs[i] - fc[i]) * np.exp(-(vv / vs[i]) ** 2) if fs[i] else 0.0
+                    mag = fc[i] + (fs[i] - fc[i]) * np.exp(-((vv / vs[i]) ** 2)) if fs[i] else 0.0
                     return [vv, (uk - b[i] * vv - d * mag - ext(y[0], tt)) / m[i]]
 
                 def reversal(tt, y, d=direction):
@@ -65,8 +66,15 @@ def reference(plant: Plant, u: np.ndarray) -> np.ndarray:
 
                 reversal.terminal = True
                 reversal.direction = -1
-                sol = solve_ivp(rhs, (t, t_end), [x, v], method="DOP853", rtol=1e-10,
-                                atol=1e-14, events=reversal if fs[i] else None)
+                sol = solve_ivp(
+                    rhs,
+                    (t, t_end),
+                    [x, v],
+                    method="DOP853",
+                    rtol=1e-10,
+                    atol=1e-14,
+                    events=reversal if fs[i] else None,
+                )
                 x, v = sol.y[0, -1], sol.y[1, -1]
                 t = sol.t[-1]
                 if sol.status == 1:  # reversal: stick or slip through

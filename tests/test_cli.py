@@ -10,8 +10,14 @@ from contour_env.cli import main
 def test_cases_lists_every_named_case(capsys):
     assert main(["cases"]) == 0
     out = capsys.readouterr().out
-    for name in ("hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "jee-circle3d",
-                 "lm-circle3d", "sharp-corner"):
+    for name in (
+        "hsm2-circle-I",
+        "hsm2-circle-II",
+        "hsm2-circle-III",
+        "jee-circle3d",
+        "lm-circle3d",
+        "sharp-corner",
+    ):
         assert name in out
 
 

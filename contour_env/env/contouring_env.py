@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import numpy as np
 import gymnasium as gym
+import numpy as np
 from gymnasium import spaces
 
 from .core import EnvConfig, EnvCore, make_core
@@ -37,15 +37,15 @@ class ContouringEnv(gym.Env):
     from the *measured* state (encoder, with quantisation and optional noise; velocity by
     backward difference), in the task frame F = [t n b] of the reference (Lee 2012 eqs. 2–3):
 
-    | index | field | unit before scaling | scale |
-    |---|---|---|---|
-    | 0 .. n−1 | Fᵀ(x_d − x): tangential, normal (, binormal) position error | m | / ``error_obs_scale_m`` (1e-4) |
-    | n .. 2n−1 | Fᵀ(ẋ_d − ẋ): task-frame velocity error | m/s | / ``velocity_error_obs_scale_m_s`` (1e-2) |
-    | 2n | reference feedrate ṡ | m/s | / case feedrate |
-    | 2n+1 | reference tangential acceleration s̈ | m/s² | / case max acceleration |
-    | 2n+2 | reference curvature κ (signed for planar paths) | 1/m | × ``curvature_obs_scale_m`` (0.05) |
-    | 2n+3 .. | preview: Fᵀ(x_d(t+τ_j) − x_d(t)) for τ_j in ``preview_times_s`` | m | / (feedrate · τ_j) |
-    | last n | previous action | – | – |
+    | index | field (unit before scaling) | scale |
+    |---|---|---|
+    | 0 .. n−1 | Fᵀ(x_d − x): tangential, normal (, binormal) error (m) | / error_obs_scale_m |
+    | n .. 2n−1 | Fᵀ(ẋ_d − ẋ): task-frame velocity error (m/s) | / velocity_error_obs_scale_m_s |
+    | 2n | reference feedrate ṡ (m/s) | / case feedrate |
+    | 2n+1 | reference tangential acceleration s̈ (m/s²) | / case max acceleration |
+    | 2n+2 | reference curvature κ, signed for planar paths (1/m) | × curvature_obs_scale_m |
+    | 2n+3 .. | preview Fᵀ(x_d(t + τ_j) − x_d(t)), τ_j in preview_times_s (m) | / (feed · τ_j) |
+    | last n | previous action | – |
 
     For a 2-axis plant the frame is the in-plane [t n] with n the left normal (Lee eq. 36).
 
@@ -144,15 +144,21 @@ class ContouringEnv(gym.Env):
         if a.shape != (self.core.dim,):
             a = a.reshape(-1)
             if a.shape != (self.core.dim,):
-                raise ValueError(f"action: expected shape ({self.core.dim},), got "
-                                 f"{np.shape(action)}")
+                raise ValueError(
+                    f"action: expected shape ({self.core.dim},), got {np.shape(action)}"
+                )
         self._action[0] = a
         core = self.core
         core.step(self._action, self._active)
         if self.render_mode:
             self._record()
-        return (core.obs[0].copy(), float(core.reward[0]), bool(core.terminated[0]),
-                bool(core.truncated[0]), core.info(0))
+        return (
+            core.obs[0].copy(),
+            float(core.reward[0]),
+            bool(core.terminated[0]),
+            bool(core.truncated[0]),
+            core.info(0),
+        )
 
     # --- rendering -------------------------------------------------------------------------
     def _record(self):

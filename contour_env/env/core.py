@@ -40,10 +40,21 @@ class EnvConfig:
     obs_clip: float = 10.0
 
     def __post_init__(self):
-        positive = ("abort_contour_error_m", "contour_error_scale_m", "error_obs_scale_m",
-                    "velocity_error_obs_scale_m_s", "curvature_obs_scale_m", "obs_clip")
-        nonneg = ("w_contour", "w_lag", "w_effort", "measurement_noise_std_m",
-                  "disturbance_force_N")
+        positive = (
+            "abort_contour_error_m",
+            "contour_error_scale_m",
+            "error_obs_scale_m",
+            "velocity_error_obs_scale_m_s",
+            "curvature_obs_scale_m",
+            "obs_clip",
+        )
+        nonneg = (
+            "w_contour",
+            "w_lag",
+            "w_effort",
+            "measurement_noise_std_m",
+            "disturbance_force_N",
+        )
         for name in positive + nonneg:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
@@ -75,16 +86,19 @@ class EnvCore:
         self.force_limit = plant.params.force_limit_N.copy()
         # reference tables, in the kernel's layout
         self.ref_pav = np.ascontiguousarray(
-            np.stack([ref.position, ref.velocity, ref.acceleration], axis=1))
+            np.stack([ref.position, ref.velocity, ref.acceleration], axis=1)
+        )
         self.frame = np.ascontiguousarray(ref.frame)
         self.scal = np.ascontiguousarray(
-            np.stack([ref.feedrate, ref.feed_accel, ref.curvature, ref.torsion], axis=1))
+            np.stack([ref.feedrate, ref.feed_accel, ref.curvature, ref.torsion], axis=1)
+        )
         path = setup.path
         self.seg_type = np.ascontiguousarray(path.seg_type, dtype=np.int64)
         self.seg_data = np.ascontiguousarray(path.seg_data, dtype=np.float64)
         self.seg_bounds = np.ascontiguousarray(path.seg_bounds, dtype=np.float64)
-        preview = np.array([max(1, round(t / self.T)) for t in config.preview_times_s],
-                           dtype=np.int64)
+        preview = np.array(
+            [max(1, round(t / self.T)) for t in config.preview_times_s], dtype=np.int64
+        )
         self.preview = preview
         cfg = np.zeros(K.CFG_SIZE)
         cfg[K.C_T] = self.T
@@ -102,8 +116,10 @@ class EnvCore:
         cfg[K.C_DIST_AMP] = config.disturbance_force_N
         cfg[K.C_OBS_CLIP] = config.obs_clip
         self.cfg = cfg
-        self.icfg = np.array([self.n_steps, plant.params.friction_substeps,
-                              int(plant.params.computation_delay)], dtype=np.int64)
+        self.icfg = np.array(
+            [self.n_steps, plant.params.friction_substeps, int(plant.params.computation_delay)],
+            dtype=np.int64,
+        )
         self.obs_dim = 3 * self.dim + 3 + len(preview) * self.dim
         B, A = self.n_envs, self.dim
         ns = plant.initial_state(np.zeros((1, A))).z.shape[2]
@@ -129,10 +145,29 @@ class EnvCore:
     def reset_env(self, b: int, noise_seed: int) -> None:
         self.seed[b] = np.uint64(noise_seed % (1 << 64))
         p = self.packed
-        K.env_reset(b, self.cfg, self.preview, self.z, self.ax, self.k, self.eps, self.est,
-                    self.status, self.seed, self.ref_pav, self.frame, self.scal, self.seg_type,
-                    self.seg_data, self.seg_bounds, p.nl, p.pidx, self.stuck0, self.obs,
-                    self.n_steps)
+        K.env_reset(
+            b,
+            self.cfg,
+            self.preview,
+            self.z,
+            self.ax,
+            self.k,
+            self.eps,
+            self.est,
+            self.status,
+            self.seed,
+            self.ref_pav,
+            self.frame,
+            self.scal,
+            self.seg_type,
+            self.seg_data,
+            self.seg_bounds,
+            p.nl,
+            p.pidx,
+            self.stuck0,
+            self.obs,
+            self.n_steps,
+        )
         self.reward[b] = 0.0
         self.terminated[b] = False
         self.truncated[b] = False
@@ -140,11 +175,36 @@ class EnvCore:
     def step(self, action: np.ndarray, active: np.ndarray) -> None:
         """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf."""
         p = self.packed
-        bad = self._step_kernel(self.cfg, self.icfg, self.preview, self.z, self.ax, self.k, self.eps,
-                         self.est, self.status, self.seed, self.ref_pav, self.frame, self.scal,
-                         self.seg_type, self.seg_data, self.seg_bounds, p.mat_T, p.mat_h, p.cont,
-                         p.nl, p.pidx, action, active, self.obs, self.reward, self.terminated,
-                         self.truncated, self.scratch)
+        bad = self._step_kernel(
+            self.cfg,
+            self.icfg,
+            self.preview,
+            self.z,
+            self.ax,
+            self.k,
+            self.eps,
+            self.est,
+            self.status,
+            self.seed,
+            self.ref_pav,
+            self.frame,
+            self.scal,
+            self.seg_type,
+            self.seg_data,
+            self.seg_bounds,
+            p.mat_T,
+            p.mat_h,
+            p.cont,
+            p.nl,
+            p.pidx,
+            action,
+            active,
+            self.obs,
+            self.reward,
+            self.terminated,
+            self.truncated,
+            self.scratch,
+        )
         if bad >= 0:
             raise ValueError(
                 f"action: must be finite, got {action[bad].tolist()} (env {bad}); the action is "
@@ -221,11 +281,29 @@ class EnvCore:
         }
 
 
-def make_core(case=None, plant=None, path=None, *, n_envs=1, feedrate_m_s=None,
-              max_accel_m_s2=None, max_jerk_m_s3=None, settle_time_s=None, ideal=False,
-              structural_mode=False, **config) -> EnvCore:
-    setup = build_setup(case, plant, path, feedrate_m_s=feedrate_m_s,
-                        max_accel_m_s2=max_accel_m_s2, max_jerk_m_s3=max_jerk_m_s3,
-                        settle_time_s=settle_time_s, ideal=ideal, structural_mode=structural_mode)
+def make_core(
+    case=None,
+    plant=None,
+    path=None,
+    *,
+    n_envs=1,
+    feedrate_m_s=None,
+    max_accel_m_s2=None,
+    max_jerk_m_s3=None,
+    settle_time_s=None,
+    ideal=False,
+    structural_mode=False,
+    **config,
+) -> EnvCore:
+    setup = build_setup(
+        case,
+        plant,
+        path,
+        feedrate_m_s=feedrate_m_s,
+        max_accel_m_s2=max_accel_m_s2,
+        max_jerk_m_s3=max_jerk_m_s3,
+        settle_time_s=settle_time_s,
+        ideal=ideal,
+        structural_mode=structural_mode,
+    )
     return EnvCore(setup, EnvConfig(**config), n_envs=n_envs)
-

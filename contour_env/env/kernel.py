@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit, prange
 
 from ..contour_error import path_distance
@@ -17,8 +16,22 @@ from ..noise import standard_normal, uniform01
 from ..plants.kernel import NL_FMAX, NL_RES, axis_step
 
 # float configuration (cfg)
-(C_T, C_ERR_SCALE, C_VERR_SCALE, C_FEED_SCALE, C_ACC_SCALE, C_CURV_SCALE, C_W_CONTOUR, C_W_LAG,
- C_W_EFFORT, C_EPS_SCALE, C_ABORT, C_NOISE_STD, C_DIST_AMP, C_OBS_CLIP) = range(14)
+(
+    C_T,
+    C_ERR_SCALE,
+    C_VERR_SCALE,
+    C_FEED_SCALE,
+    C_ACC_SCALE,
+    C_CURV_SCALE,
+    C_W_CONTOUR,
+    C_W_LAG,
+    C_W_EFFORT,
+    C_EPS_SCALE,
+    C_ABORT,
+    C_NOISE_STD,
+    C_DIST_AMP,
+    C_OBS_CLIP,
+) = range(14)
 CFG_SIZE = 14
 # integer configuration (icfg)
 I_NSTEPS, I_NSUB, I_DELAY = range(3)
@@ -73,9 +86,36 @@ def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
 
 
 @njit(cache=True, inline="always")
-def _step_one(b, cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, frame, scal,
-              seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
-              terminated, truncated, scratch):
+def _step_one(
+    b,
+    cfg,
+    icfg,
+    preview,
+    z,
+    ax,
+    k,
+    eps,
+    est,
+    status,
+    seed,
+    ref_pav,
+    frame,
+    scal,
+    seg_type,
+    seg_data,
+    seg_bounds,
+    mat_T,
+    mat_h,
+    cont,
+    nl,
+    pidx,
+    action,
+    obs,
+    reward,
+    terminated,
+    truncated,
+    scratch,
+):
     # one env, one servo period (the body shared by the serial and the parallel driver)
     n_axes = z.shape[1]
     ns = z.shape[2]
@@ -108,8 +148,23 @@ def _step_one(b, cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, 
             w_extra = dist_amp * (2.0 * uniform01(seed[b], kb, i, _STREAM_DIST) - 1.0)
         for r in range(ns):
             cur[r] = z[b, i, r]
-        ax[b, AX_STUCK, i] = axis_step(cur, ax[b, AX_STUCK, i], u, t0, T, n_sub, mat_T, mat_h,
-                                       cont, nl, p, i, tmp, tmp2, w_extra)
+        ax[b, AX_STUCK, i] = axis_step(
+            cur,
+            ax[b, AX_STUCK, i],
+            u,
+            t0,
+            T,
+            n_sub,
+            mat_T,
+            mat_h,
+            cont,
+            nl,
+            p,
+            i,
+            tmp,
+            tmp2,
+            w_extra,
+        )
         for r in range(ns):
             z[b, i, r] = cur[r]
     kb += 1
@@ -141,8 +196,10 @@ def _step_one(b, cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, 
             status[b] = STATUS_CONTOUR_LIMIT
         else:
             status[b] = STATUS_OK
-        reward[b] = -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) / cfg[
-            C_EPS_SCALE] - cfg[C_W_EFFORT] * effort / n_axes
+        reward[b] = (
+            -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) / cfg[C_EPS_SCALE]
+            - cfg[C_W_EFFORT] * effort / n_axes
+        )
         observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs)
     else:
         eps[b] = math.inf
@@ -167,9 +224,36 @@ def first_bad_action(action, active):
 
 
 @njit(cache=True)
-def env_step(cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, frame, scal,
-             seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs,
-             reward, terminated, truncated, scratch):
+def env_step(
+    cfg,
+    icfg,
+    preview,
+    z,
+    ax,
+    k,
+    eps,
+    est,
+    status,
+    seed,
+    ref_pav,
+    frame,
+    scal,
+    seg_type,
+    seg_data,
+    seg_bounds,
+    mat_T,
+    mat_h,
+    cont,
+    nl,
+    pidx,
+    action,
+    active,
+    obs,
+    reward,
+    terminated,
+    truncated,
+    scratch,
+):
     """Advance every active env by one servo period, in place (serial driver).
 
     Returns -1, or the index of the first env whose action is not finite (nothing is changed
@@ -183,16 +267,70 @@ def env_step(cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, fram
         return bad
     for b in range(z.shape[0]):
         if active[b]:
-            _step_one(b, cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, frame,
-                      scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx,
-                      action, obs, reward, terminated, truncated, scratch)
+            _step_one(
+                b,
+                cfg,
+                icfg,
+                preview,
+                z,
+                ax,
+                k,
+                eps,
+                est,
+                status,
+                seed,
+                ref_pav,
+                frame,
+                scal,
+                seg_type,
+                seg_data,
+                seg_bounds,
+                mat_T,
+                mat_h,
+                cont,
+                nl,
+                pidx,
+                action,
+                obs,
+                reward,
+                terminated,
+                truncated,
+                scratch,
+            )
     return -1
 
 
 @njit(cache=True, parallel=True)
-def env_step_parallel(cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, frame,
-                      scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
-                      active, obs, reward, terminated, truncated, scratch):
+def env_step_parallel(
+    cfg,
+    icfg,
+    preview,
+    z,
+    ax,
+    k,
+    eps,
+    est,
+    status,
+    seed,
+    ref_pav,
+    frame,
+    scal,
+    seg_type,
+    seg_data,
+    seg_bounds,
+    mat_T,
+    mat_h,
+    cont,
+    nl,
+    pidx,
+    action,
+    active,
+    obs,
+    reward,
+    terminated,
+    truncated,
+    scratch,
+):
     """As :func:`env_step`, with the envs spread over threads (same arithmetic per env, so the
     results are bit-identical to the serial driver)."""
     bad = first_bad_action(action, active)
@@ -200,15 +338,63 @@ def env_step_parallel(cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_
         return bad
     for b in prange(z.shape[0]):
         if active[b]:
-            _step_one(b, cfg, icfg, preview, z, ax, k, eps, est, status, seed, ref_pav, frame,
-                      scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx,
-                      action, obs, reward, terminated, truncated, scratch)
+            _step_one(
+                b,
+                cfg,
+                icfg,
+                preview,
+                z,
+                ax,
+                k,
+                eps,
+                est,
+                status,
+                seed,
+                ref_pav,
+                frame,
+                scal,
+                seg_type,
+                seg_data,
+                seg_bounds,
+                mat_T,
+                mat_h,
+                cont,
+                nl,
+                pidx,
+                action,
+                obs,
+                reward,
+                terminated,
+                truncated,
+                scratch,
+            )
     return -1
 
 
 @njit(cache=True)
-def env_reset(b, cfg, preview, z, ax, k, eps, est, status, seed, ref_pav, frame, scal,
-              seg_type, seg_data, seg_bounds, nl, pidx, stuck0, obs, n_steps):
+def env_reset(
+    b,
+    cfg,
+    preview,
+    z,
+    ax,
+    k,
+    eps,
+    est,
+    status,
+    seed,
+    ref_pav,
+    frame,
+    scal,
+    seg_type,
+    seg_data,
+    seg_bounds,
+    nl,
+    pidx,
+    stuck0,
+    obs,
+    n_steps,
+):
     """Put env b at rest on the reference start point (k = 0) and fill its observation."""
     n_axes = z.shape[1]
     p = pidx[b]

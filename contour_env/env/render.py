@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def magnified_trajectory(path_points: np.ndarray, positions: np.ndarray, reference: np.ndarray,
-                         gain: float) -> np.ndarray:
+def magnified_trajectory(
+    path_points: np.ndarray, positions: np.ndarray, reference: np.ndarray, gain: float
+) -> np.ndarray:
     """Reference + gain × (actual − reference): makes µm errors visible on a m-scale plot."""
     return reference + gain * (positions - reference)
 

@@ -22,8 +22,9 @@ class ContouringVectorEnv(VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    def __init__(self, num_envs: int = 1, case=None, plant=None, path=None, *, render_mode=None,
-                 **kwargs):
+    def __init__(
+        self, num_envs: int = 1, case=None, plant=None, path=None, *, render_mode=None, **kwargs
+    ):
         if render_mode is not None:
             raise ValueError("render_mode: the vector env does not render; use the single env")
         self.core: EnvCore = make_core(case, plant, path, n_envs=num_envs, **kwargs)
@@ -31,8 +32,9 @@ class ContouringVectorEnv(VectorEnv):
         n = self.core.dim
         self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
         clip = self.core.config.obs_clip
-        self.single_observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,),
-                                                   dtype=np.float32)
+        self.single_observation_space = spaces.Box(
+            -clip, clip, (self.core.obs_dim,), dtype=np.float32
+        )
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.render_mode = None
@@ -60,8 +62,9 @@ class ContouringVectorEnv(VectorEnv):
         core = self.core
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, core.dim):
-            raise ValueError(f"actions: expected shape ({self.num_envs}, {core.dim}), got "
-                             f"{a.shape}")
+            raise ValueError(
+                f"actions: expected shape ({self.num_envs}, {core.dim}), got {a.shape}"
+            )
         resetting = self._needs_reset.copy()
         active = ~resetting
         core.step(np.ascontiguousarray(a), active)
@@ -69,5 +72,10 @@ class ContouringVectorEnv(VectorEnv):
             for b in np.flatnonzero(resetting):
                 core.reset_env(int(b), int(self._rng.integers(0, 2**62)))
         self._needs_reset = core.terminated | core.truncated
-        return (core.obs.copy(), core.reward.copy(), core.terminated.copy(),
-                core.truncated.copy(), core.batch_info())
+        return (
+            core.obs.copy(),
+            core.reward.copy(),
+            core.terminated.copy(),
+            core.truncated.copy(),
+            core.batch_info(),
+        )

@@ -15,8 +15,9 @@ from .segments import Arc, Cubic, Line, _vec3
 def _points(name: str, points) -> np.ndarray:
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] not in (2, 3):
-        raise ValueError(f"{name}: expected an (n, 2) or (n, 3) array of points, got shape "
-                         f"{pts.shape}")
+        raise ValueError(
+            f"{name}: expected an (n, 2) or (n, 3) array of points, got shape {pts.shape}"
+        )
     if not np.all(np.isfinite(pts)):
         raise ValueError(f"{name}: values must be finite")
     if pts.shape[1] == 2:
@@ -49,8 +50,9 @@ def polyline(points) -> PathGeometry:
         k = int(np.argmax(steps == 0))
         raise ValueError(f"points: consecutive duplicate points at index {k} and {k + 1}")
     dim = 2 if np.asarray(points).shape[1] == 2 or np.all(pts[:, 2] == 0) else 3
-    return PathGeometry.from_segments([Line(pts[k], pts[k + 1]) for k in range(len(pts) - 1)],
-                                      dim=dim)
+    return PathGeometry.from_segments(
+        [Line(pts[k], pts[k + 1]) for k in range(len(pts) - 1)], dim=dim
+    )
 
 
 def _plane_basis(normal, u=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -71,8 +73,9 @@ def _plane_basis(normal, u=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return uu, v, w
 
 
-def arc(center, radius, *, start_angle=0.0, sweep=math.pi / 2, normal=(0.0, 0.0, 1.0),
-        u=None) -> PathGeometry:
+def arc(
+    center, radius, *, start_angle=0.0, sweep=math.pi / 2, normal=(0.0, 0.0, 1.0), u=None
+) -> PathGeometry:
     """Arc of a circle of ``radius`` (m) about ``center`` in the plane normal to ``normal``,
     from ``start_angle`` through the signed ``sweep`` (rad; > 0 counter-clockwise about the
     normal). Angles are measured from ``u`` (default: the x axis projected on the plane)."""
@@ -86,8 +89,9 @@ def arc(center, radius, *, start_angle=0.0, sweep=math.pi / 2, normal=(0.0, 0.0,
     return PathGeometry.from_segments([seg])
 
 
-def circle(center, radius, *, normal=(0.0, 0.0, 1.0), start_angle=0.0, sweep=2 * math.pi,
-           ccw=True, u=None) -> PathGeometry:
+def circle(
+    center, radius, *, normal=(0.0, 0.0, 1.0), start_angle=0.0, sweep=2 * math.pi, ccw=True, u=None
+) -> PathGeometry:
     """Circle (or partial circle with ``sweep`` < 2π) of ``radius`` > 0 m about ``center`` in
     any plane (normal vector ``normal``); ``ccw`` runs it counter-clockwise about the normal.
     A circle in the xy-plane (normal ±z, centre z = 0) is a 2-D path."""
@@ -107,8 +111,9 @@ def inclined_circle(center, radius, tilt_rad, *, tilt_axis="x", **kw) -> PathGeo
     return circle(center, radius, normal=normal, u=u, **kw)
 
 
-def helix(center, radius, pitch_per_rev, turns, *, axis=(0.0, 0.0, 1.0), start_angle=0.0,
-          ccw=True) -> PathGeometry:
+def helix(
+    center, radius, pitch_per_rev, turns, *, axis=(0.0, 0.0, 1.0), start_angle=0.0, ccw=True
+) -> PathGeometry:
     """Helix of ``radius`` (m) about ``axis`` through ``center``, rising ``pitch_per_rev`` (m)
     per revolution, for ``turns`` revolutions (> 0)."""
     r = _positive("radius", radius)
@@ -118,8 +123,15 @@ def helix(center, radius, pitch_per_rev, turns, *, axis=(0.0, 0.0, 1.0), start_a
         raise ValueError(f"pitch_per_rev: must be finite, got {pitch_per_rev!r}")
     uu, v, _ = _plane_basis(axis)
     sweep = 2 * math.pi * n * (1 if ccw else -1)
-    seg = Arc(_vec3("center", center), uu, v, r, float(start_angle), sweep,
-              pitch / (2 * math.pi) * (1 if ccw else -1))
+    seg = Arc(
+        _vec3("center", center),
+        uu,
+        v,
+        r,
+        float(start_angle),
+        sweep,
+        pitch / (2 * math.pi) * (1 if ccw else -1),
+    )
     return PathGeometry.from_segments([seg], dim=3)
 
 

@@ -47,21 +47,35 @@ class FeedProfile:
     sections: tuple
 
     @classmethod
-    def build(cls, path: PathGeometry, feedrate_m_s: float, *, max_accel_m_s2: float,
-              max_jerk_m_s3: float, corner_tol_rad: float = 1e-3, segment_feeds=None
-              ) -> FeedProfile:
-        for name, value in (("feedrate_m_s", feedrate_m_s), ("max_accel_m_s2", max_accel_m_s2),
-                            ("max_jerk_m_s3", max_jerk_m_s3)):
-            if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)
-                    and value > 0):
+    def build(
+        cls,
+        path: PathGeometry,
+        feedrate_m_s: float,
+        *,
+        max_accel_m_s2: float,
+        max_jerk_m_s3: float,
+        corner_tol_rad: float = 1e-3,
+        segment_feeds=None,
+    ) -> FeedProfile:
+        for name, value in (
+            ("feedrate_m_s", feedrate_m_s),
+            ("max_accel_m_s2", max_accel_m_s2),
+            ("max_jerk_m_s3", max_jerk_m_s3),
+        ):
+            if not (
+                isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0
+            ):
                 raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
         L = path.total_length
         cuts = set(float(c) for c in path.corner_arc_lengths(corner_tol_rad))
         seg_feed = None
         if segment_feeds is not None:
             seg_feed = np.asarray(segment_feeds, dtype=np.float64)
-            if seg_feed.shape != (path.n_segments,) or np.any(~np.isfinite(seg_feed)) or np.any(
-                    seg_feed <= 0):
+            if (
+                seg_feed.shape != (path.n_segments,)
+                or np.any(~np.isfinite(seg_feed))
+                or np.any(seg_feed <= 0)
+            ):
                 raise ValueError("segment_feeds: one finite feed > 0 per segment (m/s)")
             for k in range(1, path.n_segments):
                 if seg_feed[k] != seg_feed[k - 1]:
@@ -74,8 +88,13 @@ class FeedProfile:
             if length <= 0:
                 continue
             if seg_feed is not None:
-                k = int(np.clip(np.searchsorted(path.seg_s0, 0.5 * (s0 + s1), side="right") - 1,
-                                0, path.n_segments - 1))
+                k = int(
+                    np.clip(
+                        np.searchsorted(path.seg_s0, 0.5 * (s0 + s1), side="right") - 1,
+                        0,
+                        path.n_segments - 1,
+                    )
+                )
                 feed = float(seg_feed[k])
             else:
                 feed = float(feedrate_m_s)

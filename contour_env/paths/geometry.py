@@ -54,13 +54,16 @@ class PathGeometry:
             raise ValueError("segments: a path needs at least one segment (zero-length path)")
         for k, seg in enumerate(segments):
             if not isinstance(seg, (Line, Arc, Cubic)):
-                raise ValueError(f"segments[{k}]: expected Line, Arc or Cubic, got "
-                                 f"{type(seg).__name__}")
+                raise ValueError(
+                    f"segments[{k}]: expected Line, Arc or Cubic, got {type(seg).__name__}"
+                )
         for k in range(1, len(segments)):
             gap = np.linalg.norm(segments[k].start_point - segments[k - 1].end_point)
             if gap > CONTINUITY_TOL_M:
-                raise ValueError(f"segments[{k}]: starts {gap:.3g} m away from the end of "
-                                 f"segment {k - 1} (a path must be continuous)")
+                raise ValueError(
+                    f"segments[{k}]: starts {gap:.3g} m away from the end of "
+                    f"segment {k - 1} (a path must be continuous)"
+                )
         packed = [s.pack() for s in segments]
         seg_type = np.array([p[0] for p in packed], dtype=np.int64)
         seg_data = np.ascontiguousarray(np.array([p[1] for p in packed]))
@@ -70,22 +73,32 @@ class PathGeometry:
         if not total > 0:
             raise ValueError("path: zero-length path")
         seg_s0 = np.concatenate([[0.0], np.cumsum(seg_length)[:-1]])
-        closed = bool(np.linalg.norm(segments[-1].end_point - segments[0].start_point)
-                      <= CONTINUITY_TOL_M)
+        closed = bool(
+            np.linalg.norm(segments[-1].end_point - segments[0].start_point) <= CONTINUITY_TOL_M
+        )
         pts = np.concatenate([_sample_points(s) for s in segments])
         all_z0 = bool(np.all(pts[:, 2] == 0.0)) and all(
             not isinstance(s, Arc) or (s.pitch == 0.0 and abs(abs(s.w[2]) - 1) < 1e-12)
-            for s in segments)
+            for s in segments
+        )
         if dim is None:
             dim = 2 if all_z0 else 3
         if dim not in (2, 3):
             raise ValueError(f"dim: 2 or 3, got {dim}")
         if dim == 2 and not np.all(np.abs(pts[:, 2]) <= PLANAR_TOL_M):
             raise ValueError("dim: a 2-D path must lie in the plane z = 0")
-        planar_normal = np.array([0.0, 0.0, 1.0]) if dim == 2 else cls._plane_normal(
-            segments, pts)
-        return cls(segments, seg_type, seg_data, seg_bounds, seg_length, seg_s0, closed,
-                   planar_normal, int(dim))
+        planar_normal = np.array([0.0, 0.0, 1.0]) if dim == 2 else cls._plane_normal(segments, pts)
+        return cls(
+            segments,
+            seg_type,
+            seg_data,
+            seg_bounds,
+            seg_length,
+            seg_s0,
+            closed,
+            planar_normal,
+            int(dim),
+        )
 
     @staticmethod
     def _plane_normal(segments, pts) -> np.ndarray | None:
@@ -97,8 +110,9 @@ class PathGeometry:
         if len(sv) > 1 and sv[1] <= PLANAR_TOL_M:
             # collinear points: any plane through the line holds them; prefer one with z
             direction = vt[0]
-            ref = np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array(
-                [1.0, 0.0, 0.0])
+            ref = (
+                np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+            )
             normal = np.cross(direction, np.cross(ref, direction))
             normal /= np.linalg.norm(normal)
         arcs = [s for s in segments if isinstance(s, Arc)]
@@ -169,8 +183,9 @@ class PathGeometry:
                 b = np.cross(t, nrm)
                 kappa = np.where(curved, kappa, 0.0)
             cross = np.cross(d["d1"], d["d2"])
-            tau = np.where(curved, np.sum(cross * d["d3"], axis=1)
-                           / np.where(curved, kappa, 1.0) ** 2, 0.0)
+            tau = np.where(
+                curved, np.sum(cross * d["d3"], axis=1) / np.where(curved, kappa, 1.0) ** 2, 0.0
+            )
         frame = np.stack([t, nrm, b], axis=2)
         return np.ascontiguousarray(frame), kappa, tau
 

@@ -40,8 +40,13 @@ class ReferenceTrajectory:
         return self.time.shape[0]
 
     @classmethod
-    def build(cls, path: PathGeometry, profile: FeedProfile, servo_period_s: float,
-              settle_time_s: float = 0.0) -> ReferenceTrajectory:
+    def build(
+        cls,
+        path: PathGeometry,
+        profile: FeedProfile,
+        servo_period_s: float,
+        settle_time_s: float = 0.0,
+    ) -> ReferenceTrajectory:
         T = float(servo_period_s)
         if not (math.isfinite(T) and T > 0):
             raise ValueError(f"servo_period_s: must be > 0 s, got {servo_period_s!r}")
@@ -56,5 +61,17 @@ class ReferenceTrajectory:
         vel = sd[:, None] * d["d1"]
         acc = sdd[:, None] * d["d1"] + (sd**2)[:, None] * d["d2"]
         c = np.ascontiguousarray
-        return cls(c(t), c(s), c(sd), c(sdd), c(d["position"]), c(vel), c(acc), c(frame),
-                   c(kappa), c(tau), T, path.dim)
+        return cls(
+            c(t),
+            c(s),
+            c(sd),
+            c(sdd),
+            c(d["position"]),
+            c(vel),
+            c(acc),
+            c(frame),
+            c(kappa),
+            c(tau),
+            T,
+            path.dim,
+        )

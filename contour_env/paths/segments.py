@@ -97,8 +97,11 @@ class Arc:
             raise ValueError(f"radius: must be > 0 m, got {self.radius}")
         if self.sweep == 0:
             raise ValueError("sweep: must be non-zero (rad)")
-        if (abs(np.linalg.norm(self.u) - 1) > 1e-9 or abs(np.linalg.norm(self.v) - 1) > 1e-9
-                or abs(float(self.u @ self.v)) > 1e-9):
+        if (
+            abs(np.linalg.norm(self.u) - 1) > 1e-9
+            or abs(np.linalg.norm(self.v) - 1) > 1e-9
+            or abs(float(self.u @ self.v)) > 1e-9
+        ):
             raise ValueError("u, v: must be orthonormal vectors")
 
     @property
@@ -115,9 +118,11 @@ class Arc:
 
     def point(self, theta) -> np.ndarray:
         theta = np.atleast_1d(np.asarray(theta, dtype=np.float64))
-        return (self.center + self.radius * (np.cos(theta)[:, None] * self.u
-                                             + np.sin(theta)[:, None] * self.v)
-                + (self.pitch * (theta - self.theta0))[:, None] * self.w)
+        return (
+            self.center
+            + self.radius * (np.cos(theta)[:, None] * self.u + np.sin(theta)[:, None] * self.v)
+            + (self.pitch * (theta - self.theta0))[:, None] * self.w
+        )
 
     @property
     def start_point(self) -> np.ndarray:
@@ -140,8 +145,15 @@ class Arc:
         return pos, d1, d2, d3
 
     def pack(self):
-        data = np.concatenate([self.center, self.u, self.v, self.w,
-                               [self.radius, self.theta0, self.sweep, self.pitch]])
+        data = np.concatenate(
+            [
+                self.center,
+                self.u,
+                self.v,
+                self.w,
+                [self.radius, self.theta0, self.sweep, self.pitch],
+            ]
+        )
         half_rise = 0.5 * self.pitch * self.sweep
         centre = self.center + half_rise * self.w
         return SEG_ARC, data, np.array([*centre, float(np.hypot(self.radius, half_rise))])
@@ -197,18 +209,16 @@ class Cubic:
         s = np.clip(np.asarray(s, dtype=np.float64), 0.0, L)
         q = s / L
         lo, hi = np.zeros_like(q), np.ones_like(q)
-        for _ in range(60):
+        for _ in range(100):
             f = self.arc_length_to(q) - s
+            if np.all(np.abs(f) < 1e-13):
+                break
             lo = np.where(f < 0, q, lo)
             hi = np.where(f > 0, q, hi)
-            step = f / np.maximum(self._speed(q), 1e-300)
-            q_new = q - step
-            bad = (q_new <= lo) | (q_new >= hi)
-            q_new = np.where(bad, 0.5 * (lo + hi), q_new)
-            done = np.all(np.abs(f) < 1e-13)
-            q = q_new
-            if done:
-                break
+            q_new = q - f / np.maximum(self._speed(q), 1e-300)
+            # Newton, falling back to bisection when it leaves the bracket
+            outside = (q_new < lo) | (q_new > hi)
+            q = np.where(np.abs(f) < 1e-13, q, np.where(outside, 0.5 * (lo + hi), q_new))
         return q
 
     def derivatives(self, s: np.ndarray):
@@ -223,15 +233,21 @@ class Cubic:
         dsig = dot12 / sig  # dσ/dq
         d1 = p1 / sig
         d2 = p2 / sig**2 - p1 * dot12 / sig**4
-        d3 = (p3 / sig**2 - 2 * p2 * dsig / sig**3 - p2 * dot12 / sig**4
-              - p1 * (dot22 + dot13) / sig**4 + 4 * p1 * dot12 * dsig / sig**5) / sig
+        d3 = (
+            p3 / sig**2
+            - 2 * p2 * dsig / sig**3
+            - p2 * dot12 / sig**4
+            - p1 * (dot22 + dot13) / sig**4
+            + 4 * p1 * dot12 * dsig / sig**5
+        ) / sig
         return pos, d1, d2, d3
 
     def pack(self):
         data = np.zeros(16)
         data[:3], data[3:6], data[6:9], data[9:12] = self.a, self.b, self.c, self.d
-        ctrl = np.array([self.a, self.a + self.b / 3, self.a + 2 * self.b / 3 + self.c / 3,
-                         self.end_point])
+        ctrl = np.array(
+            [self.a, self.a + self.b / 3, self.a + 2 * self.b / 3 + self.c / 3, self.end_point]
+        )
         centre = ctrl.mean(axis=0)
         radius = float(np.max(np.linalg.norm(ctrl - centre, axis=1)))
         return SEG_CUBIC, data, np.array([*centre, radius * (1 + 1e-12) + 1e-15])

@@ -84,8 +84,9 @@ def _hsm2() -> tuple[PlantParams, Effects]:
         computation_delay=True,
         current_loop_time_constant_s=(0.5e-3, 0.5e-3),
         # hydrostatic guideways: small friction from the leadscrew nut, bearings and seals
-        added_friction=dict(coulomb_N=[40.0, 15.0], static_N=[60.0, 20.0],
-                            stribeck_velocity_m_s=[0.005, 0.005]),
+        added_friction=dict(
+            coulomb_N=[40.0, 15.0], static_N=[60.0, 20.0], stribeck_velocity_m_s=[0.005, 0.005]
+        ),
         added_ripple=dict(amplitude_N=[0.0, 20.0], period_m=[0.048, 0.048]),
         mismatch=dict(mass_kg=(1.08, 0.94), viscous_Ns_m=(0.90, 1.10)),
         structural_mode_hz=(60.0, 150.0),
@@ -124,8 +125,9 @@ def _jee() -> tuple[PlantParams, Effects]:
         computation_delay=True,
         current_loop_time_constant_s=(),
         # residual friction behind the velocity loop, as the velocity drop it causes (2 mm/s)
-        added_friction=dict(coulomb_N=list(0.002 / K), static_N=list(0.003 / K),
-                            stribeck_velocity_m_s=[0.002] * 3),
+        added_friction=dict(
+            coulomb_N=list(0.002 / K), static_N=list(0.003 / K), stribeck_velocity_m_s=[0.002] * 3
+        ),
         added_ripple=None,
         mismatch=dict(mass_kg=(1.10, 0.92, 1.05), viscous_Ns_m=(0.95, 1.05, 0.97)),
         structural_mode_hz=(),
@@ -223,8 +225,9 @@ def nominal_params(name: str) -> tuple[PlantParams, Effects]:
     return PLANTS[key]()
 
 
-def apply_effects(nominal: PlantParams, eff: Effects, *, structural_mode: bool = False
-                  ) -> PlantParams:
+def apply_effects(
+    nominal: PlantParams, eff: Effects, *, structural_mode: bool = False
+) -> PlantParams:
     """The true plant: nominal parameters with the effects switched on."""
     n = nominal.n_axes
     changes: dict = {"computation_delay": eff.computation_delay}
@@ -249,8 +252,9 @@ def apply_effects(nominal: PlantParams, eff: Effects, *, structural_mode: bool =
         reduced = frac * m * (1 - frac) * m / m  # m_load m_motor / (m_load + m_motor)
         k = reduced * (2 * np.pi * f_hz) ** 2
         c = 2 * eff.structural_damping_ratio * np.sqrt(k * reduced)
-        true = true.replace(structural_stiffness_N_m=k, structural_damping_Ns_m=c,
-                            load_mass_fraction=frac)
+        true = true.replace(
+            structural_stiffness_N_m=k, structural_damping_Ns_m=c, load_mass_fraction=frac
+        )
     return true
 
 

@@ -114,26 +114,29 @@ def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2
         w0 = -(friction_force(v0, fc, fs, vs) + (external_force(z[0], t0, nl, p, i) - w_extra))
         _advance(z, tmp, mat_T, p, i, u, w0, w0, ns)
         v1 = tmp[1]
-        w1 = -(friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t0 + T, nl, p, i) - w_extra))
+        w1 = -(
+            friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t0 + T, nl, p, i) - w_extra)
+        )
         if w1 != w0:  # equal when w does not depend on the state (e.g. pure Coulomb at speed)
             _advance(z, tmp, mat_T, p, i, u, w0, w1, ns)
         v2 = tmp[1]
         # accepted unless the velocity changes sign (reversal: substeps with stick–slip) or
         # crosses the Stribeck region in large steps (friction then varies too fast)
-        if fs == 0.0 or ((v0 > 0.0 and v1 > 0.0 and v2 > 0.0) or (v0 < 0.0 and v1 < 0.0
-                                                                  and v2 < 0.0)) and (
-            abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs
+        if (
+            fs == 0.0
+            or ((v0 > 0.0 and v1 > 0.0 and v2 > 0.0) or (v0 < 0.0 and v1 < 0.0 and v2 < 0.0))
+            and (abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs)
         ):
             for r in range(ns):
                 z[r] = tmp[r]
             return 0.0
-    return _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2,
-                           w_extra)
+    return _axis_step_slow(
+        z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra
+    )
 
 
 @njit(cache=True)
-def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2,
-                    w_extra):
+def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra):
     # Stuck, breaking away, or near a velocity reversal: kept out of line so the common
     # moving case stays small where it is inlined.
     ns = z.shape[0]
@@ -180,7 +183,10 @@ def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp
             _advance(z, tmp, mat_h, p, i, u, w0, w0, ns)
             v1 = tmp[1]
             if v1 * direction > 0.0:
-                w1 = -(friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t + h, nl, p, i) - w_extra))
+                w1 = -(
+                    friction_force(v1, fc, fs, vs)
+                    + (external_force(tmp[0], t + h, nl, p, i) - w_extra)
+                )
                 _advance(z, tmp, mat_h, p, i, u, w0, w1, ns)
             for r in range(ns):
                 z[r] = tmp[r]
@@ -194,7 +200,9 @@ def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp
         _advance(z, tmp, mat_h, p, i, u, w0, w0, ns)
         v1 = tmp[1]
         if v0 * v1 > 0.0:
-            w1 = -(friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t + h, nl, p, i) - w_extra))
+            w1 = -(
+                friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t + h, nl, p, i) - w_extra)
+            )
             _advance(z, tmp, mat_h, p, i, u, w0, w1, ns)
             v1 = tmp[1]
         if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
@@ -225,8 +233,23 @@ def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp
 
 
 @njit(cache=True)
-def plant_step_batch(z, stuck, u_pending, action_force, t0, T, n_sub, delay, mat_T, mat_h, cont,
-                     nl, pidx, applied_out, w_extra):
+def plant_step_batch(
+    z,
+    stuck,
+    u_pending,
+    action_force,
+    t0,
+    T,
+    n_sub,
+    delay,
+    mat_T,
+    mat_h,
+    cont,
+    nl,
+    pidx,
+    applied_out,
+    w_extra,
+):
     """Advance every env of the batch by one servo period, in place.
 
     z (B, A, ns), stuck (B, A), u_pending (B, A): state; pidx (B,) int64: the parameter set
@@ -256,7 +279,22 @@ def plant_step_batch(z, stuck, u_pending, action_force, t0, T, n_sub, delay, mat
             applied_out[b, i] = u
             for r in range(ns):
                 cur[r] = z[b, i, r]
-            stuck[b, i] = axis_step(cur, stuck[b, i], u, t0, T, n_sub, mat_T, mat_h, cont, nl, p,
-                                    i, tmp, tmp2, w_extra[b, i])
+            stuck[b, i] = axis_step(
+                cur,
+                stuck[b, i],
+                u,
+                t0,
+                T,
+                n_sub,
+                mat_T,
+                mat_h,
+                cont,
+                nl,
+                p,
+                i,
+                tmp,
+                tmp2,
+                w_extra[b, i],
+            )
             for r in range(ns):
                 z[b, i, r] = cur[r]

@@ -73,8 +73,9 @@ def pack_params(params_list: list[PlantParams]) -> PackedPlant:
     n_sub = first.friction_substeps
     for p in params_list[1:]:
         if state_size(p) != ns or p.n_axes != first.n_axes or p.servo_period_s != T:
-            raise ValueError("params: every env of a batch needs the same axes, state layout "
-                             "and servo period")
+            raise ValueError(
+                "params: every env of a batch needs the same axes, state layout and servo period"
+            )
     # discretise only the distinct parameter sets (a batch of identical envs costs one expm and
     # shares one set of arrays, which then stays in cache)
     index: dict[int, int] = {}
@@ -134,7 +135,8 @@ class Plant:
 
     def __init__(self, plant="hsm2", *, ideal: bool = False, structural_mode: bool = False):
         self.params, self.nominal, self.effects = resolve_plant(
-            plant, ideal=ideal, structural_mode=structural_mode)
+            plant, ideal=ideal, structural_mode=structural_mode
+        )
         self.packed = pack_params([self.params])
 
     @property
@@ -160,8 +162,9 @@ class Plant:
         z[:, :, 0] = position
         if self.params.has_structural_mode:
             z[:, :, 2] = position
-        stuck = np.broadcast_to((self.params.static_N > 0).astype(np.float64),
-                                (n_env, n_axes)).copy()
+        stuck = np.broadcast_to(
+            (self.params.static_N > 0).astype(np.float64), (n_env, n_axes)
+        ).copy()
         return PlantState(z, stuck, np.zeros((n_env, n_axes)))
 
     def packed_batch(self, n_env: int) -> PackedPlant:
@@ -169,8 +172,13 @@ class Plant:
         p = self.packed
         return PackedPlant(p.mat_T, p.mat_h, p.cont, p.nl, np.zeros(n_env, dtype=np.int64))
 
-    def step(self, state: PlantState, command: np.ndarray, time_s: float,
-             packed: PackedPlant | None = None) -> tuple[PlantState, np.ndarray]:
+    def step(
+        self,
+        state: PlantState,
+        command: np.ndarray,
+        time_s: float,
+        packed: PackedPlant | None = None,
+    ) -> tuple[PlantState, np.ndarray]:
         """Advance by one servo period from ``time_s``. Pure: returns (new state, applied).
 
         command (B, A) in N (velocity-command units for ``jee-triaxial``); it is saturated at
@@ -187,14 +195,27 @@ class Plant:
         if packed is None:
             packed = self.packed_batch(command.shape[0])
         if packed.n_envs != command.shape[0]:
-            raise ValueError(f"packed: built for {packed.n_envs} envs, command has "
-                             f"{command.shape[0]}")
+            raise ValueError(
+                f"packed: built for {packed.n_envs} envs, command has {command.shape[0]}"
+            )
         applied = np.empty_like(command)
-        plant_step_batch(new.z, new.stuck, new.u_pending, np.ascontiguousarray(command),
-                         float(time_s), self.servo_period_s, self.params.friction_substeps,
-                         self.params.computation_delay, packed.mat_T, packed.mat_h, packed.cont,
-                         packed.nl, packed.pidx, applied,
-                         np.zeros_like(command))
+        plant_step_batch(
+            new.z,
+            new.stuck,
+            new.u_pending,
+            np.ascontiguousarray(command),
+            float(time_s),
+            self.servo_period_s,
+            self.params.friction_substeps,
+            self.params.computation_delay,
+            packed.mat_T,
+            packed.mat_h,
+            packed.cont,
+            packed.nl,
+            packed.pidx,
+            applied,
+            np.zeros_like(command),
+        )
         return new, applied
 
 

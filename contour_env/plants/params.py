@@ -26,7 +26,9 @@ def _axis_array(name: str, value, n_axes: int, *, positive=False, nonneg=False) 
     if arr.ndim == 0:
         arr = np.full(n_axes, float(arr))
     if arr.shape != (n_axes,):
-        raise ValueError(f"{name}: expected a scalar or {n_axes} per-axis values, got shape {arr.shape}")
+        raise ValueError(
+            f"{name}: expected a scalar or {n_axes} per-axis values, got shape {arr.shape}"
+        )
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: values must be finite, got {arr.tolist()}")
     if positive and np.any(arr <= 0):
@@ -179,7 +181,9 @@ class PlantParams:
         changes = {}
         for key, f in factors.items():
             if key not in PER_AXIS_FIELDS:
-                raise ValueError(f"scaled: unknown per-axis parameter {key!r}; known: {PER_AXIS_FIELDS}")
+                raise ValueError(
+                    f"scaled: unknown per-axis parameter {key!r}; known: {PER_AXIS_FIELDS}"
+                )
             changes[key] = getattr(self, key) * np.asarray(f, dtype=np.float64)
         return self.replace(**changes)
 
@@ -243,7 +247,9 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
     ``friction_substeps``, ``name``. The full field names of :class:`PlantParams` work too.
     """
     if not isinstance(mapping, Mapping):
-        raise ValueError(f"plant: a custom plant is a mapping of parameters, got {type(mapping).__name__}")
+        raise ValueError(
+            f"plant: a custom plant is a mapping of parameters, got {type(mapping).__name__}"
+        )
     known_fields = {f.name for f in fields(PlantParams)}
     kw: dict = {}
     for key, value in mapping.items():
@@ -254,9 +260,17 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
         elif key in known_fields:
             kw[key] = value
         else:
-            allowed = sorted(set(MAPPING_KEYS) | {"axes", "computation_delay", "input_kind",
-                                                  "friction_substeps", "name",
-                                                  "load_mass_fraction"})
+            allowed = sorted(
+                set(MAPPING_KEYS)
+                | {
+                    "axes",
+                    "computation_delay",
+                    "input_kind",
+                    "friction_substeps",
+                    "name",
+                    "load_mass_fraction",
+                }
+            )
             raise ValueError(f"plant: unknown parameter {key!r}; allowed: {', '.join(allowed)}")
     for req in ("mass_kg", "force_limit_N", "servo_period_s"):
         if req not in kw:

@@ -71,10 +71,12 @@ def test_three_d_path_on_two_axis_plant():
 
 @pytest.mark.parametrize(
     "kw, name",
-    [({"abort_contour_error_m": 0.0}, "abort_contour_error_m"),
-     ({"w_contour": -1.0}, "w_contour"),
-     ({"preview_times_s": ()}, "preview_times_s"),
-     ({"measurement_noise_std_m": float("nan")}, "measurement_noise_std_m")],
+    [
+        ({"abort_contour_error_m": 0.0}, "abort_contour_error_m"),
+        ({"w_contour": -1.0}, "w_contour"),
+        ({"preview_times_s": ()}, "preview_times_s"),
+        ({"measurement_noise_std_m": float("nan")}, "measurement_noise_std_m"),
+    ],
 )
 def test_bad_env_arguments_name_the_parameter(kw, name):
     with pytest.raises(ValueError, match=name):

@@ -12,9 +12,19 @@ import contour_env  # noqa: F401
 from contour_env import ENV_ID
 from contour_env.cases import case_names
 
-INFO_KEYS = {"time", "position", "measured_position", "velocity", "reference", "contour_error",
-             "contour_error_estimate", "tracking_error", "force", "saturated",
-             "termination_reason"}
+INFO_KEYS = {
+    "time",
+    "position",
+    "measured_position",
+    "velocity",
+    "reference",
+    "contour_error",
+    "contour_error_estimate",
+    "tracking_error",
+    "force",
+    "saturated",
+    "termination_reason",
+}
 
 
 @pytest.mark.parametrize("case", case_names())
@@ -37,8 +47,9 @@ def test_info_has_every_documented_key_in_physical_units():
     np.testing.assert_allclose(info["tracking_error"], info["reference"] - info["position"])
     # hsm2 encoders: 2 µm (x) and 1 µm (y) -> the measured position is on that grid
     res = np.array([2e-6, 1e-6])
-    np.testing.assert_allclose(np.round(info["measured_position"] / res) * res,
-                               info["measured_position"], atol=1e-15)
+    np.testing.assert_allclose(
+        np.round(info["measured_position"] / res) * res, info["measured_position"], atol=1e-15
+    )
     assert info["contour_error"] >= 0.0
     assert info["termination_reason"] is None
 
@@ -99,8 +110,14 @@ def test_truncates_when_path_and_settle_time_are_done():
 
 
 def test_reward_follows_the_documented_formula():
-    env = gym.make(ENV_ID, case="hsm2-circle-II", w_contour=2.0, w_lag=0.5, w_effort=0.1,
-                   contour_error_scale_m=1e-5)
+    env = gym.make(
+        ENV_ID,
+        case="hsm2-circle-II",
+        w_contour=2.0,
+        w_lag=0.5,
+        w_effort=0.1,
+        contour_error_scale_m=1e-5,
+    )
     env.reset(seed=0)
     a = np.array([0.3, -0.2], dtype=np.float32)
     for _ in range(50):

@@ -10,9 +10,11 @@ from contour_env import ENV_ID
 
 @pytest.mark.parametrize(
     "kw",
-    [dict(case="hsm2-circle-II"),
-     dict(case="jee-circle3d"),
-     dict(case="sharp-corner", measurement_noise_std_m=1e-6, disturbance_force_N=3.0)],
+    [
+        dict(case="hsm2-circle-II"),
+        dict(case="jee-circle3d"),
+        dict(case="sharp-corner", measurement_noise_std_m=1e-6, disturbance_force_N=3.0),
+    ],
 )
 def test_vector_env_equals_single_envs(kw):
     n, steps, seed = 4, 400, 11
@@ -36,8 +38,13 @@ def test_vector_env_equals_single_envs(kw):
 
 
 def test_vector_env_autoresets_next_step():
-    venv = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point",
-                        case="hsm2-circle-I", abort_contour_error_m=1e-4)
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        case="hsm2-circle-I",
+        abort_contour_error_m=1e-4,
+    )
     venv.reset(seed=0)
     actions = np.array([[1.0, 1.0], [0.0, 0.0]], dtype=np.float32)
     for _ in range(2000):
@@ -50,8 +57,9 @@ def test_vector_env_autoresets_next_step():
 
 
 def test_vector_env_rejects_bad_actions():
-    venv = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point",
-                        case="hsm2-circle-I")
+    venv = gym.make_vec(
+        ENV_ID, num_envs=3, vectorization_mode="vector_entry_point", case="hsm2-circle-I"
+    )
     venv.reset(seed=0)
     a = np.zeros((3, 2))
     a[1, 0] = np.nan
