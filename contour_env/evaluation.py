@@ -56,7 +56,7 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) 
         rec["position"][i] = pos
         rec["reference"][i] = ref
         rec["tracking_error"][i] = ref - pos
-        rec["force"][i] = core.ax[0, K.AX_APPLIED]
+        rec["force"][i] = core.ax[K.AX_APPLIED, 0]
         if terminated or truncated:
             reason = info.get("termination_reason")
             break

@@ -20,6 +20,8 @@ TERMINATION_REASONS = {
     K.STATUS_CONTOUR_LIMIT: "contour_error_limit",
     K.STATUS_NONFINITE: "non_finite_state",
 }
+# indexed by status code ("" while running), for the batched info
+_REASON_BY_STATUS = np.array(["", "contour_error_limit", "non_finite_state"])
 
 
 @dataclass(frozen=True)
@@ -124,7 +126,7 @@ class EnvCore:
         B, A = self.n_envs, self.dim
         ns = plant.initial_state(np.zeros((1, A))).z.shape[2]
         self.z = np.zeros((B, A, ns))
-        self.ax = np.zeros((B, K.AX_SIZE, A))
+        self.ax = np.zeros((K.AX_SIZE, B, A))
         self.k = np.zeros(B, dtype=np.int64)
         self.eps = np.zeros(B)
         self.est = np.zeros((B, A))
@@ -214,48 +216,43 @@ class EnvCore:
     # --- readouts (physical units) ---------------------------------------------------------
     def info(self, b: int) -> dict:
         """The per-step ``info`` dict of env b (see ContouringEnv for the keys)."""
-        kk = min(int(self.k[b]), self.n_steps - 1)
-        A = self.dim
+        ax = self.ax
         position = self.z[b, :, 0].copy()
-        reference = self.ref_pav[kk, 0, :A].copy()
-        applied = self.ax[b, K.AX_APPLIED].copy()
-        status = int(self.status[b])
+        reference = ax[K.AX_REF, b].copy()
         return {
             "time": float(self.k[b]) * self.T,
             "step": int(self.k[b]),
             "position": position,
-            "measured_position": self.ax[b, K.AX_MEAS].copy(),
+            "measured_position": ax[K.AX_MEAS, b].copy(),
             "velocity": self.z[b, :, 1].copy(),
             "reference": reference,
             "contour_error": float(self.eps[b]),
             "contour_error_estimate": self.est[b].copy(),
             "tracking_error": reference - position,
-            "force": applied,
-            "saturated": np.abs(applied) >= self.force_limit * (1 - 1e-12),
-            "termination_reason": TERMINATION_REASONS.get(status),
+            "force": ax[K.AX_APPLIED, b].copy(),
+            "saturated": ax[K.AX_SAT, b] > 0.0,
+            "termination_reason": TERMINATION_REASONS.get(int(self.status[b])),
         }
 
     def batch_info(self) -> dict:
-        """Same keys as :meth:`info`, stacked over the batch (leading axis B)."""
-        kk = np.minimum(self.k, self.n_steps - 1)
-        A = self.dim
+        """Same keys as :meth:`info`, stacked over the batch (leading axis B); the
+        termination reason is "" while an env runs."""
+        ax = self.ax
         position = self.z[:, :, 0].copy()
-        reference = self.ref_pav[kk, 0, :A]
-        applied = self.ax[:, K.AX_APPLIED].copy()
-        reasons = np.array([TERMINATION_REASONS.get(int(s), "") for s in self.status])
+        reference = ax[K.AX_REF].copy()
         return {
             "time": self.k * self.T,
             "step": self.k.copy(),
             "position": position,
-            "measured_position": self.ax[:, K.AX_MEAS].copy(),
+            "measured_position": ax[K.AX_MEAS].copy(),
             "velocity": self.z[:, :, 1].copy(),
             "reference": reference,
             "contour_error": self.eps.copy(),
             "contour_error_estimate": self.est.copy(),
             "tracking_error": reference - position,
-            "force": applied,
-            "saturated": np.abs(applied) >= self.force_limit * (1 - 1e-12),
-            "termination_reason": reasons,
+            "force": ax[K.AX_APPLIED].copy(),
+            "saturated": ax[K.AX_SAT] > 0.0,
+            "termination_reason": _REASON_BY_STATUS[self.status],
         }
 
     def signals(self, b: int = 0) -> dict:
@@ -268,8 +265,8 @@ class EnvCore:
         return {
             "time": float(self.k[b]) * self.T,
             "step": int(self.k[b]),
-            "measured_position": self.ax[b, K.AX_MEAS].copy(),
-            "measured_velocity": self.ax[b, K.AX_VEL].copy(),
+            "measured_position": self.ax[K.AX_MEAS, b].copy(),
+            "measured_velocity": self.ax[K.AX_VEL, b].copy(),
             "reference_position": self.ref_pav[kk, 0, :A].copy(),
             "reference_velocity": self.ref_pav[kk, 1, :A].copy(),
             "reference_acceleration": self.ref_pav[kk, 2, :A].copy(),

@@ -36,9 +36,10 @@ CFG_SIZE = 14
 # integer configuration (icfg)
 I_NSTEPS, I_NSUB, I_DELAY = range(3)
 ICFG_SIZE = 3
-# per-axis env state rows (ax[b, row, axis])
-AX_STUCK, AX_UPEND, AX_MEAS, AX_VEL, AX_PREV, AX_APPLIED = range(6)
-AX_SIZE = 6
+# per-axis env state and readout rows (ax[row, b, axis]; row-major so each row of the batch
+# is contiguous and the info arrays are plain copies)
+AX_STUCK, AX_UPEND, AX_MEAS, AX_VEL, AX_PREV, AX_APPLIED, AX_SAT, AX_REF = range(8)
+AX_SIZE = 8
 # termination status codes
 STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE = 0, 1, 2
 # noise streams
@@ -55,14 +56,14 @@ def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
     for r in range(dim):
         acc = 0.0
         for c in range(dim):
-            acc += frame[kk, c, r] * (ref_pav[kk, 0, c] - ax[b, AX_MEAS, c])
+            acc += frame[kk, c, r] * (ref_pav[kk, 0, c] - ax[AX_MEAS, b, c])
         obs[b, o] = min(max(acc / cfg[C_ERR_SCALE], -clip), clip)
         o += 1
     # task-frame velocity error Fᵀ(v_d − v_meas), scaled
     for r in range(dim):
         acc = 0.0
         for c in range(dim):
-            acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[b, AX_VEL, c])
+            acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[AX_VEL, b, c])
         obs[b, o] = min(max(acc / cfg[C_VERR_SCALE], -clip), clip)
         o += 1
     obs[b, o] = min(max(scal[kk, 0] / cfg[C_FEED_SCALE], -clip), clip)
@@ -81,7 +82,7 @@ def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
             obs[b, o] = min(max(acc / scale, -clip), clip)
             o += 1
     for r in range(dim):
-        obs[b, o] = ax[b, AX_PREV, r]
+        obs[b, o] = ax[AX_PREV, b, r]
         o += 1
 
 
@@ -134,23 +135,24 @@ def _step_one(
     effort = 0.0
     for i in range(n_axes):
         a = min(max(action[b, i], -1.0), 1.0)
-        ax[b, AX_PREV, i] = a
+        ax[AX_PREV, b, i] = a
         effort += a * a
         cmd = a * nl[p, i, NL_FMAX]
         if delay:
-            u = ax[b, AX_UPEND, i]
-            ax[b, AX_UPEND, i] = cmd
+            u = ax[AX_UPEND, b, i]
+            ax[AX_UPEND, b, i] = cmd
         else:
             u = cmd
-        ax[b, AX_APPLIED, i] = u
+        ax[AX_APPLIED, b, i] = u
+        ax[AX_SAT, b, i] = 1.0 if abs(u) >= nl[p, i, NL_FMAX] * (1.0 - 1e-12) else 0.0
         w_extra = 0.0
         if dist_amp > 0.0:
             w_extra = dist_amp * (2.0 * uniform01(seed[b], kb, i, _STREAM_DIST) - 1.0)
         for r in range(ns):
             cur[r] = z[b, i, r]
-        ax[b, AX_STUCK, i] = axis_step(
+        ax[AX_STUCK, b, i] = axis_step(
             cur,
-            ax[b, AX_STUCK, i],
+            ax[AX_STUCK, b, i],
             u,
             t0,
             T,
@@ -181,13 +183,14 @@ def _step_one(
         res = nl[p, i, NL_RES]
         if res > 0.0:
             xm = math.floor(xm / res + 0.5) * res
-        ax[b, AX_VEL, i] = (xm - ax[b, AX_MEAS, i]) / T
-        ax[b, AX_MEAS, i] = xm
+        ax[AX_VEL, b, i] = (xm - ax[AX_MEAS, b, i]) / T
+        ax[AX_MEAS, b, i] = xm
     for r in range(n_axes):
         acc = 0.0
         for c in range(n_axes):
             acc += frame[kk, c, r] * (ref_pav[kk, 0, c] - z[b, c, 0])
         est[b, r] = acc
+        ax[AX_REF, b, r] = ref_pav[kk, 0, r]
     if finite:
         pz = z[b, 2, 0] if n_axes == 3 else 0.0
         e = path_distance(seg_type, seg_data, seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
@@ -257,7 +260,7 @@ def env_step(
     """Advance every active env by one servo period, in place (serial driver).
 
     Returns -1, or the index of the first env whose action is not finite (nothing is changed
-    then). Shapes: z (B, A, ns); ax (B, AX_SIZE, A); k, status (B,) int64; eps (B,);
+    then). Shapes: z (B, A, ns); ax (AX_SIZE, B, A); k, status (B,) int64; eps (B,);
     est (B, A); seed (B,) uint64; ref_pav (n, 3, 3) rows [position, velocity, acceleration];
     frame (n, 3, 3) columns [t n b]; scal (n, 4) [feedrate, feed accel, curvature, torsion];
     action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (B, 3, ns).
@@ -404,18 +407,20 @@ def env_reset(
         z[b, i, 0] = ref_pav[0, 0, i]
         if z.shape[2] >= 4:
             z[b, i, 2] = ref_pav[0, 0, i]  # motor side of the two-mass model
-        ax[b, AX_STUCK, i] = stuck0[i]
-        ax[b, AX_UPEND, i] = 0.0
-        ax[b, AX_PREV, i] = 0.0
-        ax[b, AX_APPLIED, i] = 0.0
+        ax[AX_STUCK, b, i] = stuck0[i]
+        ax[AX_UPEND, b, i] = 0.0
+        ax[AX_PREV, b, i] = 0.0
+        ax[AX_APPLIED, b, i] = 0.0
+        ax[AX_SAT, b, i] = 0.0
+        ax[AX_REF, b, i] = ref_pav[0, 0, i]
         xm = z[b, i, 0]
         if cfg[C_NOISE_STD] > 0.0:
             xm += cfg[C_NOISE_STD] * standard_normal(seed[b], 0, i, _STREAM_MEAS)
         res = nl[p, i, NL_RES]
         if res > 0.0:
             xm = math.floor(xm / res + 0.5) * res
-        ax[b, AX_MEAS, i] = xm
-        ax[b, AX_VEL, i] = 0.0
+        ax[AX_MEAS, b, i] = xm
+        ax[AX_VEL, b, i] = 0.0
         est[b, i] = ref_pav[0, 0, i] - z[b, i, 0]
     k[b] = 0
     status[b] = STATUS_OK
