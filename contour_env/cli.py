@@ -98,6 +98,10 @@ def cmd_run(args) -> int:
         f" {core.n_steps - 1} steps of {core.T * 1e3:g} ms"
     )
     policy, label = None, "zero command"
+    if args.controller:
+        from agents import make_controller
+
+        policy, label = make_controller(args.controller).bind(env), args.controller
     record = run_episode(env, policy, seed=args.seed)
     metrics = score(record)
     _print_metrics(label, metrics)
@@ -147,6 +151,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_cases)
     p = sub.add_parser("run", help="run one episode and print its metrics")
     _add_target_args(p)
+    p.add_argument(
+        "--controller",
+        default=None,
+        help="controller used as the policy (pd); default: zero command",
+    )
     p.add_argument("--json", help="write the metrics as JSON to this file")
     p.add_argument("--plot", help="write a plot (PNG) to this file")
     p.set_defaults(func=cmd_run)

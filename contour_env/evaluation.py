@@ -22,6 +22,8 @@ def _unwrap(env):
 def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) -> EpisodeRecord:
     """Run ``env`` from ``reset(seed=seed)`` to the end with ``policy``; return the record."""
     core = _unwrap(env)
+    if policy is not None and hasattr(policy, "bind") and getattr(policy, "_env", None) is None:
+        policy.bind(env)  # a classical controller reads the servo signals of this env
     obs, _ = env.reset(seed=seed)
     n_max = core.n_steps - 1
     d = core.dim

@@ -57,3 +57,16 @@ def test_bench_small(tmp_path, monkeypatch):
     assert res["single_env_steps_per_s"] > 0
     assert [r["num_envs"] for r in res["vector"]] == [1, 8]
     assert "CartPole" in bench.format_bench(res)
+
+
+def test_run_with_pd_controller(tmp_path):
+    js = tmp_path / "pd.json"
+    assert main(["run", "--case", "hsm2-circle-I", "--controller", "pd", "--json", str(js)]) == 0
+    data = json.loads(js.read_text())
+    assert data["controller"] == "pd"
+    assert 0 < data["metrics"]["rms_contour_error_um"] < 500
+
+
+def test_run_unknown_controller_is_a_clean_error(capsys):
+    assert main(["run", "--case", "hsm2-circle-I", "--controller", "nope"]) == 2
+    assert "unknown controller 'nope'" in capsys.readouterr().err

@@ -1,0 +1,20 @@
+"""Controller names users script against."""
+
+from __future__ import annotations
+
+from .pd import PDController
+
+CONTROLLERS = {"pd": PDController}
+
+
+def controller_names() -> list[str]:
+    return list(CONTROLLERS)
+
+
+def make_controller(name: str, **kwargs):
+    """A controller by name (unbound; call ``.bind(env)``)."""
+    if name not in CONTROLLERS:
+        raise ValueError(
+            f"controller: unknown controller {name!r}; known: {', '.join(CONTROLLERS)}"
+        )
+    return CONTROLLERS[name](**kwargs)
