@@ -1,15 +1,20 @@
 """The one policy protocol: reset, then act from what a real servo controller measures.
 
-A :class:`Controller` is bound to a contour_env env (``bind``), from which it reads the
-nominal plant model, the servo period and, every sample, ``env.signals()`` (measured
-position/velocity, the reference and its derivatives, the path frame and curvature). Its
-``predict(observation, state=None, episode_start=None, deterministic=True)`` has
-stable-baselines3's shape, so one evaluation path scores controllers and agents alike.
+A :class:`Controller` is bound to a contour_env env (``bind``: a single env, a wrapper of one,
+or the vectorised env), from which it reads the nominal plant model, the servo period and,
+every sample, the servo signals (``env.signals()``: measured position/velocity, the reference
+and its derivatives, the path frame and curvature). Controllers compute on a batch (leading
+axis B; a single env is a batch of one), so the same object runs as a policy, as the base of
+a residual agent (:meth:`command`) and inside repeated-batch ILC. ``predict(observation,
+state=None, episode_start=None, deterministic=True)`` has stable-baselines3's shape, so one
+evaluation path scores controllers and agents alike.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from contour_env.env.core import signals_to_batch
 
 
 def _core_of(env):
@@ -17,24 +22,28 @@ def _core_of(env):
         core = getattr(candidate, "core", None)
         if core is not None:
             return candidate, core
-    raise ValueError("env: expected a contour_env ContouringEnv (or a wrapper of one)")
+    raise ValueError("env: expected a contour_env env (single, wrapped or vectorised)")
 
 
 class Controller:
-    """Base class. Subclasses implement :meth:`act` (command in the plant's units, N) and may
-    keep internal state (integrators, adaptive estimates) reset by :meth:`reset`."""
+    """Base class. Subclasses implement :meth:`act` on batched signals (command in the plant's
+    units, N; velocity-command units for ``jee-triaxial``) and keep per-env state (integrators,
+    adaptive estimates) that :meth:`reset` clears."""
 
     name = "controller"
 
     def __init__(self):
-        self._env = None
+        self._core = None
+        self._single = True
         self.nominal = None
         self.servo_period_s = None
         self.force_limit = None
         self.n_axes = None
+        self.n_envs = 1
 
     def bind(self, env) -> Controller:
-        """Attach to an env (single env or a wrapper of one) and reset."""
+        """Attach to an env and reset. The controller keeps the axis count it was first bound
+        with: binding it to an env with another number of axes is an error."""
         holder, core = _core_of(env)
         plant = core.setup.plant
         if self.n_axes is not None and self.n_axes != plant.n_axes:
@@ -42,11 +51,13 @@ class Controller:
                 f"env: controller {self.name!r} was built for a {self.n_axes}-axis plant, the "
                 f"env has {plant.n_axes} axes"
             )
-        self._env = holder
+        self._core = core
+        self._single = not hasattr(holder, "num_envs")
         self.nominal = plant.nominal
         self.servo_period_s = plant.servo_period_s
         self.force_limit = plant.params.force_limit_N.copy()
         self.n_axes = plant.n_axes
+        self.n_envs = core.n_envs
         self.configure()
         self.reset()
         return self
@@ -54,21 +65,44 @@ class Controller:
     def configure(self) -> None:
         """Derive gains from the bound plant (called by :meth:`bind`)."""
 
-    def reset(self) -> None:
-        """Start of an episode: clear integrators and estimates."""
+    def reset(self, mask=None) -> None:
+        """Start of an episode for the envs in ``mask`` (all if None)."""
 
     def act(self, signals: dict) -> np.ndarray:
+        """Command (B, A) from batched signals (see :meth:`EnvCore.signals_batch`)."""
         raise NotImplementedError
 
+    def command(self, signals: dict) -> np.ndarray:
+        """The residual-base interface: command (B, A) in the plant's units for (single or
+        batched) signals."""
+        return self.act(signals_to_batch(signals))
+
     def action(self, signals: dict) -> np.ndarray:
-        """The env action: the command as a fraction of the force limit, clipped to [-1, 1]."""
-        u = np.asarray(self.act(signals), dtype=np.float64)
+        """Env action (B, A): the command as a fraction of the force limit, clipped to [-1, 1]."""
+        u = np.asarray(self.command(signals), dtype=np.float64)
         return np.clip(u / self.force_limit, -1.0, 1.0).astype(np.float32)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         """stable-baselines3 signature; reads the bound env's servo signals."""
-        if self._env is None:
+        if self._core is None:
             raise ValueError(f"controller {self.name!r}: call bind(env) before predict")
-        if episode_start is not None and np.any(episode_start):
-            self.reset()
-        return self.action(self._env.signals()), state
+        if episode_start is not None:
+            mask = np.asarray(episode_start, dtype=bool).reshape(-1)
+            if mask.any():
+                self.reset(mask if mask.size == self.n_envs else None)
+        a = self.action(self._core.signals_batch())
+        return (a[0] if self._single else a), state
+
+
+def per_axis(name: str, value, n_axes: int) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(n_axes, float(arr))
+    if arr.shape != (n_axes,):
+        raise ValueError(
+            f"{name}: expected a scalar or {n_axes} per-axis values (the controller is bound to "
+            f"a {n_axes}-axis plant), got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: must be finite")
+    return arr

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Controller
+from .base import Controller, per_axis
 
 # Closed-loop natural frequency (rad/s) per plant for the default gains: the same on every
-# axis ("balanced", Lee §4), critically damped (no overshoot). Chosen below the limit that
-# the one-period computation delay and the current-loop lag of the realistic plants allow.
+# axis ("balanced", Lee §4), critically damped (no overshoot). Found by
+# scripts/tune_controllers.py (criterion there); the realistic plants' one-period delay and
+# current-loop lag bound it.
 DEFAULT_BANDWIDTH_RAD_S = {
     "hsm2": 100.0,
     "jee-triaxial": 200.0,
@@ -31,8 +32,8 @@ class PDController(Controller):
         ω (rad/s); default per plant from ``DEFAULT_BANDWIDTH_RAD_S``.
     damping : float
         ζ (default 1).
-    P, D : array-like, optional
-        Explicit gains per axis (N/m, N s/m) overriding the pole placement.
+    P, D : scalar or per-axis, optional
+        Explicit gains (N/m, N s/m) overriding the pole placement.
     """
 
     name = "pd"
@@ -41,8 +42,8 @@ class PDController(Controller):
         super().__init__()
         self.bandwidth_rad_s = bandwidth_rad_s
         self.damping = float(damping)
-        self._P_user = None if P is None else np.asarray(P, dtype=np.float64)
-        self._D_user = None if D is None else np.asarray(D, dtype=np.float64)
+        self._P_user = P
+        self._D_user = D
 
     def configure(self) -> None:
         m, b = self.nominal.mass_kg, self.nominal.viscous_Ns_m
@@ -51,15 +52,14 @@ class PDController(Controller):
             w = DEFAULT_BANDWIDTH_RAD_S.get(self.nominal.name, 100.0)
         if not (np.isfinite(w) and w > 0):
             raise ValueError(f"bandwidth_rad_s: must be > 0, got {w!r}")
-        self.P = m * w**2 if self._P_user is None else self._P_user
+        self.omega = float(w)
+        n = self.n_axes
+        self.P = m * w**2 if self._P_user is None else per_axis("P", self._P_user, n)
         self.D = (
             np.maximum(2 * self.damping * m * w - b, 0.0)
             if self._D_user is None
-            else (self._D_user)
+            else per_axis("D", self._D_user, n)
         )
-        for name, g in (("P", self.P), ("D", self.D)):
-            if np.shape(g) not in ((), (self.n_axes,)):
-                raise ValueError(f"{name}: expected a scalar or {self.n_axes} per-axis gains")
 
     def act(self, signals: dict) -> np.ndarray:
         e = signals["reference_position"] - signals["measured_position"]

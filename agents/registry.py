@@ -2,9 +2,17 @@
 
 from __future__ import annotations
 
+from .adaptive_ccc import AdaptiveCCCController
+from .ccc import CCCController
+from .jee_ccc import JeeCCCController
 from .pd import PDController
 
-CONTROLLERS = {"pd": PDController}
+CONTROLLERS = {
+    "pd": PDController,
+    "ccc": CCCController,
+    "adaptive-ccc": AdaptiveCCCController,
+    "jee-ccc": JeeCCCController,
+}
 
 
 def controller_names() -> list[str]:

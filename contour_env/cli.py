@@ -128,6 +128,65 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_compare(args) -> int:
+    from agents.compare import compare, format_table, robustness
+    from agents.registry import controller_names
+
+    from .io import atomic_write_json
+    from .plotting import plot_runs
+
+    names = [c.strip() for c in args.controllers.split(",") if c.strip()]
+    known = controller_names()
+    unknown = [c for c in names if c not in known]
+    if not names or unknown:
+        raise ValueError(f"controllers: unknown {unknown or names!r}; known: {', '.join(known)}")
+    kw = _target_kwargs(args)
+
+    def show(name, row):
+        if "rms_contour_error_um" in row:
+            status = "" if row["stable"] else f" UNSTABLE ({row['termination_reason']})"
+            rms = row["rms_contour_error_um"]
+            text = f"{rms:.2f} µm" if rms is not None else "n/a"
+            print(f"  {name}: RMS contour error {text}{status}", flush=True)
+
+    result = compare(names, seed=args.seed, progress=show, **kw)
+    robust = None
+    if args.randomize is not None:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(names), desc="robustness", unit="controller")
+
+        def tick(name, row):
+            bar.update(1)
+
+        robust = robustness(
+            names, args.randomize, args.episodes, seed=args.seed, progress=tick, **kw
+        )
+        bar.close()
+    print(format_table(result, robust))
+    records = result.pop("records")
+    out = {
+        "case": result["case"],
+        "plant": result["plant"],
+        "ideal": bool(kw["ideal"]),
+        "seed": args.seed,
+        "results": result["results"],
+    }
+    if robust is not None:
+        out["robustness"] = robust
+    if args.json:
+        atomic_write_json(args.json, out)
+        print(f"wrote {args.json}")
+    if args.plot:
+        path_points = next(iter(records.values())).reference
+        metrics = {r["controller"]: r for r in result["results"]}
+        plot_runs(
+            records, path_points, f"{result['case']} — {', '.join(names)}", args.plot, metrics
+        )
+        print(f"wrote {args.plot}")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import format_bench, run_bench
     from .io import atomic_write_json
@@ -159,6 +218,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the metrics as JSON to this file")
     p.add_argument("--plot", help="write a plot (PNG) to this file")
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("compare", help="controllers side by side (Lee 2012 Tables 2, 3)")
+    _add_target_args(p)
+    p.add_argument(
+        "--controllers",
+        default="pd,ccc,adaptive-ccc",
+        help="comma-separated controllers (pd, ccc, adaptive-ccc, jee-ccc); "
+        "default pd,ccc,adaptive-ccc",
+    )
+    p.add_argument("--json", help="write the results as JSON to this file")
+    p.add_argument("--plot", help="write contour error vs time for all controllers (PNG)")
+    p.add_argument(
+        "--randomize",
+        type=float,
+        default=None,
+        metavar="FRACTION",
+        help="also score over plant-parameter variations of ±FRACTION (e.g. 0.2)",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=32,
+        help="number of variations with --randomize (default 32)",
+    )
+    p.set_defaults(func=cmd_compare)
     p = sub.add_parser("bench", help="steps/s of the single and the vectorised env")
     p.add_argument("--case", default=DEFAULT_CASE, help=f"case (default {DEFAULT_CASE})")
     p.add_argument("--seconds", type=float, default=2.0, help="time per measurement, s")

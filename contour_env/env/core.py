@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cases import Setup, build_setup
+from ..plants import pack_params
 from . import kernel as K
 
 PARALLEL_MIN_ENVS = 256
@@ -73,7 +74,7 @@ class EnvConfig:
 class EnvCore:
     """A batch of ``n_envs`` contouring envs on one setup (case, plant, path, reference)."""
 
-    def __init__(self, setup: Setup, config: EnvConfig, n_envs: int = 1):
+    def __init__(self, setup: Setup, config: EnvConfig, n_envs: int = 1, plant_params=None):
         if not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"num_envs: must be an integer >= 1, got {n_envs!r}")
         self.setup = setup
@@ -84,7 +85,16 @@ class EnvCore:
         self.dim = plant.n_axes
         self.T = plant.servo_period_s
         self.n_steps = ref.n_steps
-        self.packed = plant.packed_batch(self.n_envs)
+        if plant_params is None:
+            self.packed = plant.packed_batch(self.n_envs)
+        else:
+            # one true parameter set per env (robustness studies); controllers keep the nominal
+            if len(plant_params) != self.n_envs:
+                raise ValueError(
+                    f"plant_params: one PlantParams per env ({self.n_envs}), got "
+                    f"{len(plant_params)}"
+                )
+            self.packed = pack_params(list(plant_params))
         self.force_limit = plant.params.force_limit_N.copy()
         # reference tables, in the kernel's layout
         self.ref_pav = np.ascontiguousarray(
@@ -137,6 +147,7 @@ class EnvCore:
         self.terminated = np.zeros(B, dtype=bool)
         self.truncated = np.zeros(B, dtype=bool)
         self.active = np.ones(B, dtype=bool)
+        # stuck at rest where there is static friction (identical structure across the batch)
         self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
         self.action = np.zeros((B, A))
         self.scratch = np.zeros((B, 3, ns))
@@ -255,6 +266,25 @@ class EnvCore:
             "termination_reason": _REASON_BY_STATUS[self.status],
         }
 
+    def signals_batch(self) -> dict:
+        """:meth:`signals` of every env, stacked (leading axis B)."""
+        kk = np.minimum(self.k, self.n_steps - 1)
+        A = self.dim
+        return {
+            "time": self.k * self.T,
+            "step": self.k.copy(),
+            "measured_position": self.ax[K.AX_MEAS].copy(),
+            "measured_velocity": self.ax[K.AX_VEL].copy(),
+            "reference_position": self.ref_pav[kk, 0, :A],
+            "reference_velocity": self.ref_pav[kk, 1, :A],
+            "reference_acceleration": self.ref_pav[kk, 2, :A],
+            "frame": self.frame[kk, :A, :A],
+            "curvature": self.scal[kk, 2],
+            "torsion": self.scal[kk, 3],
+            "feedrate": self.scal[kk, 0],
+            "servo_period_s": self.T,
+        }
+
     def signals(self, b: int = 0) -> dict:
         """What a real servo controller measures at the current sample of env b (SI units):
         measured position and velocity (encoder, backward difference), the reference position,
@@ -278,6 +308,19 @@ class EnvCore:
         }
 
 
+def signals_to_batch(signals: dict) -> dict:
+    """A single env's signals with a leading batch axis of one (controllers work on batches)."""
+    if np.ndim(signals["measured_position"]) == 2:
+        return signals
+    out = {}
+    for key, value in signals.items():
+        if key == "servo_period_s":
+            out[key] = value
+        else:
+            out[key] = np.asarray(value)[None, ...]
+    return out
+
+
 def make_core(
     case=None,
     plant=None,
@@ -290,6 +333,7 @@ def make_core(
     settle_time_s=None,
     ideal=False,
     structural_mode=False,
+    plant_params=None,
     **config,
 ) -> EnvCore:
     setup = build_setup(
@@ -303,4 +347,4 @@ def make_core(
         ideal=ideal,
         structural_mode=structural_mode,
     )
-    return EnvCore(setup, EnvConfig(**config), n_envs=n_envs)
+    return EnvCore(setup, EnvConfig(**config), n_envs=n_envs, plant_params=plant_params)
