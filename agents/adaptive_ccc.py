@@ -10,14 +10,19 @@ from .base import Controller, per_axis
 # derivative action as the PD controller (k α = m ω², k = 2 m ω), so the comparison isolates
 # the cross-coupling and adaptive terms. Found by scripts/tune_controllers.py.
 DEFAULT_BANDWIDTH_RAD_S = {
-    "hsm2": 100.0,
-    "jee-triaxial": 200.0,
-    "linear-motor": 300.0,
-    "friction-table": 150.0,
+    "hsm2": 150.0,
+    "jee-triaxial": 250.0,
+    "linear-motor": 400.0,
+    "friction-table": 200.0,
 }
 # adaptation gains per unit nominal parameter: Γ_m = γ_m m_nom, Γ_b = γ_b b_nom (or m_nom
 # where b_nom = 0)
-DEFAULT_GAMMA = (10.0, 50.0)
+DEFAULT_GAMMA = {
+    "hsm2": (0.3, 1.0),
+    "jee-triaxial": (50.0, 200.0),
+    "linear-motor": (1.0, 5.0),
+    "friction-table": (3.0, 15.0),
+}
 
 
 def _R(curvature, torsion, n_axes):
@@ -46,18 +51,16 @@ class AdaptiveCCCController(Controller):
     (k_i = 2 m_i ω) so that axes of very different mass are balanced; α = ω / 2.
 
     Parameters: bandwidth_rad_s (ω), k (per axis, N s/m) and alpha (1/s) overriding it,
-    gamma = (γ_m, γ_b) with Γ = diag(γ_m m_nom, γ_b b_nom).
+    gamma = (γ_m, γ_b) with Γ = diag(γ_m m_nom, γ_b b_nom) (default per plant).
     """
 
     name = "adaptive-ccc"
 
-    def __init__(self, bandwidth_rad_s=None, k=None, alpha=None, gamma=DEFAULT_GAMMA):
+    def __init__(self, bandwidth_rad_s=None, k=None, alpha=None, gamma=None):
         super().__init__()
         self.bandwidth_rad_s = bandwidth_rad_s
         self._k_user, self._alpha_user = k, alpha
-        self.gamma = tuple(float(g) for g in gamma)
-        if len(self.gamma) != 2 or any(not np.isfinite(g) or g < 0 for g in self.gamma):
-            raise ValueError(f"gamma: two adaptation gains >= 0, got {gamma!r}")
+        self._gamma_user = gamma
 
     def configure(self) -> None:
         m, b = self.nominal.mass_kg, self.nominal.viscous_Ns_m
@@ -65,6 +68,10 @@ class AdaptiveCCCController(Controller):
         if not (np.isfinite(w) and w > 0):
             raise ValueError(f"bandwidth_rad_s: must be > 0, got {w!r}")
         n = self.n_axes
+        gamma = self._gamma_user or DEFAULT_GAMMA.get(self.nominal.name, (1.0, 5.0))
+        self.gamma = tuple(float(g) for g in gamma)
+        if len(self.gamma) != 2 or any(not np.isfinite(g) or g < 0 for g in self.gamma):
+            raise ValueError(f"gamma: two adaptation gains >= 0, got {gamma!r}")
         self.k = 2 * m * w if self._k_user is None else per_axis("k", self._k_user, n)
         self.alpha = w / 2 if self._alpha_user is None else float(self._alpha_user)
         self.theta0 = np.concatenate([m, b])

@@ -10,9 +10,9 @@ from .pd import PDController
 # Proportional cross-coupling gain W_p (1/s², an acceleration per metre of contour error,
 # scaled by each axis's nominal mass) per plant; found by scripts/tune_controllers.py.
 DEFAULT_WP = {
-    "hsm2": 3.0e4,
-    "jee-triaxial": 3.0e4,
-    "linear-motor": 9.0e4,
+    "hsm2": 6.0e4,
+    "jee-triaxial": 9.0e4,
+    "linear-motor": 3.0e5,
     "friction-table": 6.0e4,
 }
 

@@ -12,7 +12,7 @@ from .base import Controller, per_axis
 # without delay). On the ideal plant K_P = 12, C_P = 10 meets the paper's design goal
 # (contour error ≤ 25 µm with tracking error ≤ 250 µm).
 DEFAULT_KP = 6.0
-DEFAULT_CP = 3.0
+DEFAULT_CP = 4.0
 
 
 class JeeCCCController(Controller):

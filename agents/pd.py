@@ -11,10 +11,10 @@ from .base import Controller, per_axis
 # scripts/tune_controllers.py (criterion there); the realistic plants' one-period delay and
 # current-loop lag bound it.
 DEFAULT_BANDWIDTH_RAD_S = {
-    "hsm2": 100.0,
-    "jee-triaxial": 200.0,
-    "linear-motor": 300.0,
-    "friction-table": 150.0,
+    "hsm2": 150.0,
+    "jee-triaxial": 250.0,
+    "linear-motor": 400.0,
+    "friction-table": 200.0,
 }
 DEFAULT_DAMPING = 1.0
 
