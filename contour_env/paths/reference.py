@@ -1,5 +1,5 @@
-"""The per-servo-period reference table: position, velocity, acceleration, task frame,
-curvature and torsion along a path with its feed profile (what the env kernel reads)."""
+"""The per-servo-period reference table along a path with its feed profile: position,
+velocity, acceleration, task frame, curvature and torsion (what the env kernel reads)."""
 
 from __future__ import annotations
 
@@ -14,12 +14,14 @@ from .geometry import PathGeometry
 
 @dataclass(frozen=True, eq=False)
 class ReferenceTrajectory:
-    """Reference at t_k = k T, k = 0 .. n_steps − 1 (SI units; arrays float64, C-contiguous).
+    """Reference at t_k = k T for k = 0 .. n_steps − 1 (SI; float64, C-contiguous arrays).
 
-    time (n,) s; arc_length (n,) m; feedrate ṡ (n,) m/s; feed_accel s̈ (n,) m/s²;
-    position, velocity (= ṡ t), acceleration (= s̈ t + ṡ² d²p/ds²) (n, 3); frame (n, 3, 3)
-    columns [t n b]; curvature (n,) 1/m (signed for planar paths); torsion (n,) 1/m.
-    After the feed profile ends the reference holds the end point at rest (settle time).
+    ``time`` (n,) s; ``arc_length`` s (n,) m; ``feedrate`` ṡ (n,) m/s; ``feed_accel`` s̈ (n,)
+    m/s²; ``position`` (n, 3) m; ``velocity`` = ṡ t (n, 3) m/s; ``acceleration``
+    = s̈ t + ṡ² d²p/ds² (n, 3) m/s²; ``frame`` (n, 3, 3) columns [t n b]; ``curvature`` (n,)
+    1/m (signed for planar paths); ``torsion`` (n,) 1/m; ``servo_period_s`` T; ``dim`` (2 or 3,
+    the path's). Frame convention: `PathGeometry`. n_steps = ceil((duration + settle) / T) + 1;
+    after the feed profile ends the reference holds the end point at rest.
     """
 
     time: np.ndarray
@@ -37,7 +39,7 @@ class ReferenceTrajectory:
 
     @property
     def n_steps(self) -> int:
-        return self.time.shape[0]
+        return int(self.time.shape[0])
 
     @classmethod
     def build(
@@ -47,31 +49,51 @@ class ReferenceTrajectory:
         servo_period_s: float,
         settle_time_s: float = 0.0,
     ) -> ReferenceTrajectory:
-        T = float(servo_period_s)
-        if not (math.isfinite(T) and T > 0):
+        """Sample ``path`` with ``profile`` (built for this path) every ``servo_period_s`` > 0 s,
+        for the profile's duration plus ``settle_time_s`` ≥ 0 s."""
+        T = _number("servo_period_s", servo_period_s)
+        if not T > 0:
             raise ValueError(f"servo_period_s: must be > 0 s, got {servo_period_s!r}")
-        settle = float(settle_time_s)
-        if not (math.isfinite(settle) and settle >= 0):
-            raise ValueError(f"settle_time_s: must be >= 0 s, got {settle_time_s!r}")
-        n = int(math.ceil((profile.duration + settle) / T - 1e-9)) + 1
-        t = np.arange(n) * T
+        settle = _number("settle_time_s", settle_time_s)
+        if not settle >= 0:
+            raise ValueError(f"settle_time_s: must be ≥ 0 s, got {settle_time_s!r}")
+        if abs(profile.total_length - path.total_length) > 1e-12 * max(1.0, path.total_length):
+            raise ValueError(
+                f"profile: built for a path of length {profile.total_length:.9g} m, "
+                f"this path is {path.total_length:.9g} m"
+            )
+        n = math.ceil((profile.duration + settle) / T) + 1
+        t = np.arange(n, dtype=np.float64) * T
         s, sd, sdd = profile.sample(t)
         d = path.evaluate(s)
         frame, kappa, tau = path.frames(s, d)
+        # d2 is the true second derivative: right on straights and in both frame conventions
         vel = sd[:, None] * d["d1"]
-        acc = sdd[:, None] * d["d1"] + (sd**2)[:, None] * d["d2"]
+        acc = sdd[:, None] * d["d1"] + (sd * sd)[:, None] * d["d2"]
         c = np.ascontiguousarray
         return cls(
-            c(t),
-            c(s),
-            c(sd),
-            c(sdd),
-            c(d["position"]),
-            c(vel),
-            c(acc),
-            c(frame),
-            c(kappa),
-            c(tau),
-            T,
-            path.dim,
+            time=c(t),
+            arc_length=c(s),
+            feedrate=c(sd),
+            feed_accel=c(sdd),
+            position=c(d["position"]),
+            velocity=c(vel),
+            acceleration=c(acc),
+            frame=c(frame),
+            curvature=c(kappa),
+            torsion=c(tau),
+            servo_period_s=T,
+            dim=int(path.dim),
         )
+
+
+def _number(name: str, value) -> float:
+    if isinstance(value, bool):
+        raise ValueError(f"{name}: expected a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name}: must be finite, got {value!r}")
+    return v
