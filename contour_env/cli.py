@@ -1,4 +1,4 @@
-"""The ``contour-env`` command line: ``cases``, ``run``, ``bench``."""
+"""The ``contour-env`` command line: ``cases``, ``run``, ``compare``, ``stability``, ``bench``."""
 
 from __future__ import annotations
 
@@ -187,6 +187,37 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_stability(args) -> int:
+    import json
+
+    from .analysis import format_stability_report, stability_report
+    from .io import atomic_write_json
+
+    plant = args.plant
+    if args.params:
+        try:
+            with open(args.params) as fh:
+                plant = json.load(fh)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"--params {args.params}: not valid JSON ({exc})") from None
+    kw = {"radius_m": args.radius}
+    if args.kp is not None:
+        kw["kp"] = args.kp
+    if args.feedrates:
+        try:
+            kw["feedrates_m_s"] = [float(f) / 60.0 for f in args.feedrates.split(",")]
+        except ValueError:
+            raise ValueError(
+                f"--feedrates: expected comma-separated numbers in m/min, got {args.feedrates!r}"
+            ) from None
+    rep = stability_report(plant, ideal=not args.realistic, **kw)
+    print(format_stability_report(rep))
+    if args.json:
+        atomic_write_json(args.json, rep)
+        print(f"wrote {args.json}")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import format_bench, run_bench
     from .io import atomic_write_json
@@ -242,6 +273,33 @@ def build_parser() -> argparse.ArgumentParser:
         help="number of variations with --randomize (default 32)",
     )
     p.set_defaults(func=cmd_compare)
+    p = sub.add_parser(
+        "stability", help="Jee 2007: Jury range of the axial P gain and circle steady state"
+    )
+    p.add_argument(
+        "--plant",
+        default="jee-triaxial",
+        help="plant name (default jee-triaxial; hsm2, linear-motor, friction-table too)",
+    )
+    p.add_argument(
+        "--params",
+        help="JSON file of custom plant parameters (a plain mapping; overrides --plant)",
+    )
+    p.add_argument(
+        "--kp", type=float, help="axial gain for the steady state (default: half the limit)"
+    )
+    p.add_argument(
+        "--feedrates",
+        help="comma-separated circle feedrates in m/min (default 5,10,20)",
+    )
+    p.add_argument("--radius", type=float, default=0.05, help="circle radius, m (default 0.05)")
+    p.add_argument(
+        "--realistic",
+        action="store_true",
+        help="simulate the plant with its realistic effects (default: ideal, as the paper)",
+    )
+    p.add_argument("--json", help="write the report as JSON to this file")
+    p.set_defaults(func=cmd_stability)
     p = sub.add_parser("bench", help="steps/s of the single and the vectorised env")
     p.add_argument("--case", default=DEFAULT_CASE, help=f"case (default {DEFAULT_CASE})")
     p.add_argument("--seconds", type=float, default=2.0, help="time per measurement, s")

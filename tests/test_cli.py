@@ -70,3 +70,41 @@ def test_run_with_pd_controller(tmp_path):
 def test_run_unknown_controller_is_a_clean_error(capsys):
     assert main(["run", "--case", "hsm2-circle-I", "--controller", "nope"]) == 2
     assert "unknown controller 'nope'" in capsys.readouterr().err
+
+
+def test_stability_reports_jee_limit_and_writes_json(tmp_path, capsys):
+    js = tmp_path / "s.json"
+    assert main(["stability", "--plant", "jee-triaxial", "--json", str(js)]) == 0
+    out = capsys.readouterr().out
+    assert "16.639855" in out
+    rep = json.loads(js.read_text())
+    assert rep["axial_gain_limit_per_s"] == pytest.approx(16.64, abs=5e-3)
+    sim = rep["simulation"]
+    assert sim["stable_below"] and sim["diverged_above"]
+    ratios = [r["contour_ratio"] for r in rep["steady_state"]]
+    assert sum(abs(r - 1.0) < 0.1 for r in ratios) >= 2
+
+
+def test_stability_custom_params_file(tmp_path, capsys):
+    f = tmp_path / "p.json"
+    f.write_text(
+        json.dumps(
+            {
+                "mass": [0.01, 0.02],
+                "viscous": [1.0, 1.0],
+                "force_limit": 1e3,
+                "servo_period": 1e-3,
+                "input_kind": "velocity-command",
+            }
+        )
+    )
+    assert main(["stability", "--params", str(f), "--feedrates", "5,10"]) == 0
+    out = capsys.readouterr().out
+    assert "custom" in out and "2016.8" in out
+
+
+def test_stability_bad_inputs_are_clean_errors(tmp_path, capsys):
+    assert main(["stability", "--plant", "nope"]) == 2
+    assert "known plants" in capsys.readouterr().err
+    assert main(["stability", "--feedrates", "5,fast"]) == 2
+    assert "--feedrates" in capsys.readouterr().err

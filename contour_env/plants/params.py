@@ -22,7 +22,12 @@ INPUT_KINDS = ("force", "velocity-command")
 
 
 def _axis_array(name: str, value, n_axes: int, *, positive=False, nonneg=False) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name}: expected a number or {n_axes} per-axis numbers, got {value!r}"
+        ) from None
     if arr.ndim == 0:
         arr = np.full(n_axes, float(arr))
     if arr.shape != (n_axes,):
@@ -108,6 +113,11 @@ class PlantParams:
     notes: str = ""
 
     def __post_init__(self):
+        if isinstance(self.axis_names, str) or not isinstance(self.axis_names, (tuple, list)):
+            raise ValueError(
+                f"axis_names (axes): a list of 2 or 3 axis names such as ['x', 'y'], "
+                f"got {self.axis_names!r}"
+            )
         n = len(self.axis_names)
         if n not in (2, 3):
             raise ValueError(f"axis_names: a plant has 2 or 3 axes, got {n}")
@@ -149,13 +159,25 @@ class PlantParams:
             )
         if np.any(self.load_mass_fraction >= 1.0):
             raise ValueError("load_mass_fraction: must be in (0, 1)")
+        if isinstance(self.servo_period_s, bool) or not isinstance(
+            self.servo_period_s, (int, float, np.integer, np.floating)
+        ):
+            raise ValueError(
+                f"servo_period_s: must be a number > 0 (seconds), got {self.servo_period_s!r}"
+            )
         if not (math.isfinite(self.servo_period_s) and self.servo_period_s > 0):
             raise ValueError(f"servo_period_s: must be > 0 (seconds), got {self.servo_period_s}")
         s(self, "servo_period_s", float(self.servo_period_s))
         if self.input_kind not in INPUT_KINDS:
             raise ValueError(f"input_kind: must be one of {INPUT_KINDS}, got {self.input_kind!r}")
-        if int(self.friction_substeps) < 1:
-            raise ValueError(f"friction_substeps: must be >= 1, got {self.friction_substeps}")
+        fs = self.friction_substeps
+        if isinstance(fs, bool) or not isinstance(fs, (int, np.integer)) or fs < 1:
+            raise ValueError(f"friction_substeps: must be an integer >= 1, got {fs!r}")
+        if not isinstance(self.computation_delay, (bool, np.bool_)):
+            raise ValueError(
+                f"computation_delay: must be True or False, got {self.computation_delay!r}"
+            )
+        s(self, "computation_delay", bool(self.computation_delay))
         s(self, "friction_substeps", int(self.friction_substeps))
         for arr_name in spec:
             getattr(self, arr_name).setflags(write=False)
@@ -254,6 +276,10 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
     kw: dict = {}
     for key, value in mapping.items():
         if key == "axes":
+            if isinstance(value, str) or not isinstance(value, (list, tuple)):
+                raise ValueError(
+                    f"axes: a list of 2 or 3 axis names such as ['x', 'y'], got {value!r}"
+                )
             kw["axis_names"] = tuple(value)
         elif key in MAPPING_KEYS:
             kw[MAPPING_KEYS[key]] = value
