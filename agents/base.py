@@ -40,6 +40,7 @@ class Controller:
         self.force_limit = None
         self.n_axes = None
         self.n_envs = 1
+        self.computation_delay_steps = 0
 
     def bind(self, env) -> Controller:
         """Attach to an env and reset. The controller keeps the axis count it was first bound
@@ -58,6 +59,9 @@ class Controller:
         self.force_limit = plant.params.force_limit_N.copy()
         self.n_axes = plant.n_axes
         self.n_envs = core.n_envs
+        # the controller's own computation delay (samples) is a property of the servo
+        # hardware its designer knows, not a plant uncertainty
+        self.computation_delay_steps = int(plant.params.computation_delay)
         self.configure()
         self.reset()
         return self

@@ -4,15 +4,23 @@ from __future__ import annotations
 
 from .adaptive_ccc import AdaptiveCCCController
 from .ccc import CCCController
+from .ilc import ILCContourController, ILCPDController
 from .jee_ccc import JeeCCCController
 from .pd import PDController
+from .vilcfd import VILCFDController
 
 CONTROLLERS = {
     "pd": PDController,
     "ccc": CCCController,
     "adaptive-ccc": AdaptiveCCCController,
     "jee-ccc": JeeCCCController,
+    "ilc-pd": ILCPDController,
+    "ilc-contour": ILCContourController,
+    "vilcfd": VILCFDController,
 }
+
+# controllers that learn between trials of a repeated batch (``contour-env ilc``)
+LEARNING_CONTROLLERS = ("ilc-pd", "ilc-contour", "vilcfd")
 
 
 def controller_names() -> list[str]:

@@ -187,6 +187,64 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_ilc(args) -> int:
+    import gymnasium as gym
+
+    from agents import make_controller
+    from agents.registry import LEARNING_CONTROLLERS
+    from agents.repeated_batch import run_batch
+
+    from . import ENV_ID
+    from .io import atomic_write_json
+    from .plotting import plot_learning
+
+    if args.controller not in LEARNING_CONTROLLERS:
+        raise ValueError(
+            f"--controller: {args.controller!r} does not learn between trials; learning "
+            f"controllers: {', '.join(LEARNING_CONTROLLERS)}"
+        )
+    if args.iterations < 1:
+        raise ValueError(f"--iterations: must be >= 1, got {args.iterations}")
+    kw = _target_kwargs(args)
+    if args.noise is not None:
+        kw["measurement_noise_std_m"] = args.noise
+    if args.disturbance_phase:
+        kw["disturbance_phase"] = args.disturbance_phase
+    env = gym.make(ENV_ID, **kw)
+    controller = make_controller(args.controller)
+    if args.load:
+        controller.load_state(args.load)
+    controller.bind(env)
+    result = run_batch(env, controller, args.iterations, seed=args.seed, progress=True)
+    print(f"case {result['case']} (plant {result['plant']}), controller {result['controller']}")
+    print(f"{'iteration':>9s} {'max ε µm':>10s} {'RMS ε µm':>10s} {'RMS/first':>10s}")
+    first = result["iterations"][0]["rms_contour_error_um"]
+    for r in result["iterations"]:
+        rms = r["rms_contour_error_um"]
+        ratio = f"{rms / first:10.4f}" if rms is not None and first else f"{'–':>10s}"
+        mx = r["max_contour_error_um"]
+        flag = "  error growing" if r["error_growing"] else ""
+        if not r["completed"]:
+            flag = f"  stopped: {r['termination_reason']}"
+        print(
+            f"{r['iteration']:9d} {mx if mx is not None else float('nan'):10.3f} "
+            f"{rms if rms is not None else float('nan'):10.3f} {ratio}{flag}"
+        )
+    if result["diverged"]:
+        print("warning: the learning diverged (a trial failed or the last is worse than the first)")
+    if args.save:
+        controller.save(args.save)
+        print(f"wrote {args.save} (learning state after {controller.iteration} trials)")
+    if args.json:
+        data = {k: v for k, v in result.items() if k != "trials"}
+        atomic_write_json(args.json, data)
+        print(f"wrote {args.json}")
+    if args.plot:
+        plot_learning(result, args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
 def cmd_stability(args) -> int:
     import json
 
@@ -273,6 +331,32 @@ def build_parser() -> argparse.ArgumentParser:
         help="number of variations with --randomize (default 32)",
     )
     p.set_defaults(func=cmd_compare)
+    p = sub.add_parser("ilc", help="repeated-batch trials with a learning controller")
+    _add_target_args(p)
+    p.add_argument(
+        "--controller",
+        default="ilc-contour",
+        help="learning controller: ilc-pd, ilc-contour, vilcfd (default ilc-contour)",
+    )
+    p.add_argument("--iterations", type=int, default=10, help="number of trials (default 10)")
+    p.add_argument("--json", help="write the per-iteration metrics as JSON to this file")
+    p.add_argument("--plot", help="write the learning curve and first/last trial (PNG)")
+    p.add_argument("--save", help="write the learning state (.npz) after the last trial")
+    p.add_argument("--load", help="continue from a saved learning state (.npz)")
+    p.add_argument(
+        "--noise",
+        type=float,
+        default=None,
+        metavar="STD_M",
+        help="encoder noise standard deviation, m (new in every trial; default none)",
+    )
+    p.add_argument(
+        "--disturbance-phase",
+        choices=("fixed", "random"),
+        default=None,
+        help="plant disturbance phase: fixed (default, repeats) or random per trial",
+    )
+    p.set_defaults(func=cmd_ilc)
     p = sub.add_parser(
         "stability", help="Jee 2007: Jury range of the axial P gain and circle steady state"
     )

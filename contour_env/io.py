@@ -47,3 +47,19 @@ def atomic_save_figure(fig, path, **kwargs) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+def atomic_write_bytes(path, data: bytes) -> Path:
+    path = Path(path)
+    fd, tmp = _tmp_for(path, ".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path

@@ -64,3 +64,39 @@ def plot_runs(
     atomic_save_figure(fig, out, dpi=110)
     plt.close(fig)
     return out
+
+
+def plot_learning(result: dict, out, title: str | None = None):
+    """Learning curve (max and RMS contour error per iteration, log scale) and the first and
+    last trials' contour error vs time, from :func:`agents.repeated_batch.run_batch`."""
+    rows = result["iterations"]
+    it = [r["iteration"] for r in rows]
+    mx = [np.nan if r["max_contour_error_um"] is None else r["max_contour_error_um"] for r in rows]
+    rms = [np.nan if r["rms_contour_error_um"] is None else r["rms_contour_error_um"] for r in rows]
+    fig, (ax_l, ax_t) = plt.subplots(1, 2, figsize=(12, 4.5))
+    ax_l.semilogy(it, mx, "o-", ms=3, label="max ε")
+    ax_l.semilogy(it, rms, "s-", ms=3, label="RMS ε")
+    bad = [r["iteration"] for r in rows if r.get("error_growing")]
+    if bad:
+        ax_l.semilogy(bad, [rms[i - 1] for i in bad], "rx", label="error growing")
+    ax_l.set_xlabel("iteration (trial)")
+    ax_l.set_ylabel("contour error (µm)")
+    ax_l.set_title("learning curve")
+    ax_l.grid(True, which="both", alpha=0.3)
+    ax_l.legend(fontsize=8)
+    for i, trial in sorted(result.get("trials", {}).items()):
+        rec = trial.episode(0)
+        ax_t.plot(rec.time, rec.contour_error * 1e6, lw=1, label=f"trial {i}")
+    ax_t.set_xlabel("time (s)")
+    ax_t.set_ylabel("true contour error ε (µm)")
+    ax_t.set_title("first and last trial")
+    ax_t.grid(True, alpha=0.3)
+    ax_t.legend(fontsize=8)
+    fig.suptitle(
+        title
+        or f"{result['controller']} on {result['case']} ({result['plant']}), {len(rows)} iterations"
+    )
+    fig.tight_layout()
+    atomic_save_figure(fig, out, dpi=110)
+    plt.close(fig)
+    return out

@@ -108,3 +108,30 @@ def test_stability_bad_inputs_are_clean_errors(tmp_path, capsys):
     assert "known plants" in capsys.readouterr().err
     assert main(["stability", "--feedrates", "5,fast"]) == 2
     assert "--feedrates" in capsys.readouterr().err
+
+
+def test_ilc_writes_json_plot_and_state_and_continues(tmp_path, capsys):
+    g = tmp_path / "corner.nc"
+    g.write_text("G21 G90 G17\nG01 X3 F1200\nG01 Y3\n")
+    js, png, st = tmp_path / "i.json", tmp_path / "i.png", tmp_path / "s.npz"
+    base = ["ilc", "--plant", "friction-table", "--gcode", str(g), "--controller", "ilc-contour"]
+    assert (
+        main([*base, "--iterations", "4", "--json", str(js), "--plot", str(png), "--save", str(st)])
+        == 0
+    )
+    data = json.loads(js.read_text())
+    rows = data["iterations"]
+    assert [r["iteration"] for r in rows] == [1, 2, 3, 4]
+    assert rows[-1]["rms_contour_error_um"] < rows[0]["rms_contour_error_um"]
+    assert png.stat().st_size > 10_000 and st.stat().st_size > 0
+    assert main([*base, "--iterations", "1", "--load", str(st)]) == 0
+    assert (
+        main(["ilc", "--case", "sharp-corner", "--controller", "ilc-contour", "--load", str(st)])
+        == 2
+    )
+    assert "does not match the learning state" in capsys.readouterr().err
+
+
+def test_ilc_rejects_a_controller_that_does_not_learn(capsys):
+    assert main(["ilc", "--case", "sharp-corner", "--controller", "pd"]) == 2
+    assert "learning controllers: ilc-pd, ilc-contour, vilcfd" in capsys.readouterr().err

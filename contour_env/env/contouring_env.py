@@ -88,6 +88,13 @@ class ContouringEnv(gym.Env):
     obs_clip : see above.
     measurement_noise_std_m : Gaussian encoder noise before quantisation (default 0).
     disturbance_force_N : bounded random force, uniform in ±value per step and axis (default 0).
+    disturbance_phase : ``"fixed"`` (default) or ``"random"``. The phase of the plant's own
+        periodic disturbance d(t) (``friction-table``: 8/6 N at 1.5/2.3 Hz). ``"fixed"``: the
+        documented phase, the same in every episode (named cases are deterministic).
+        ``"random"``: a disturbance not synchronised with the part program — each episode draws
+        its time offset per axis, uniform over one period, from the episode seed (the same
+        seed repeats it; the trials of a repeated batch, seeded anew, see a disturbance that
+        iterative learning cannot learn).
     render_mode : None or ``"rgb_array"``.
 
     Random elements (noise, random disturbance) are drawn from a counter-based generator keyed

@@ -25,6 +25,9 @@ TERMINATION_REASONS = {
 _REASON_BY_STATUS = np.array(["", "contour_error_limit", "non_finite_state"])
 
 
+DISTURBANCE_PHASES = ("random", "fixed")
+
+
 @dataclass(frozen=True)
 class EnvConfig:
     """Episode, observation and reward settings (SI units). See ContouringEnv for meanings."""
@@ -41,6 +44,7 @@ class EnvConfig:
     measurement_noise_std_m: float = 0.0
     disturbance_force_N: float = 0.0
     obs_clip: float = 10.0
+    disturbance_phase: str = "fixed"
 
     def __post_init__(self):
         positive = (
@@ -65,6 +69,11 @@ class EnvConfig:
             if not math.isfinite(value) or value < 0 or (name in positive and value == 0):
                 rule = "> 0" if name in positive else ">= 0"
                 raise ValueError(f"{name}: must be finite and {rule}, got {value!r}")
+        if self.disturbance_phase not in DISTURBANCE_PHASES:
+            raise ValueError(
+                f"disturbance_phase: must be one of {DISTURBANCE_PHASES}, got "
+                f"{self.disturbance_phase!r}"
+            )
         times = tuple(float(t) for t in self.preview_times_s)
         if not times or any(not math.isfinite(t) or t <= 0 for t in times):
             raise ValueError(f"preview_times_s: non-empty, every time > 0 s, got {times}")
@@ -127,6 +136,7 @@ class EnvCore:
         cfg[K.C_NOISE_STD] = config.measurement_noise_std_m
         cfg[K.C_DIST_AMP] = config.disturbance_force_N
         cfg[K.C_OBS_CLIP] = config.obs_clip
+        cfg[K.C_DIST_PHASE_RANDOM] = 1.0 if config.disturbance_phase == "random" else 0.0
         self.cfg = cfg
         self.icfg = np.array(
             [self.n_steps, plant.params.friction_substeps, int(plant.params.computation_delay)],

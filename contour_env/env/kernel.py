@@ -13,7 +13,7 @@ from numba import njit, prange
 
 from ..contour_error import path_distance
 from ..noise import standard_normal, uniform01
-from ..plants.kernel import NL_FMAX, NL_RES, axis_step
+from ..plants.kernel import NL_FD, NL_FMAX, NL_RES, axis_step
 
 # float configuration (cfg)
 (
@@ -31,19 +31,21 @@ from ..plants.kernel import NL_FMAX, NL_RES, axis_step
     C_NOISE_STD,
     C_DIST_AMP,
     C_OBS_CLIP,
-) = range(14)
-CFG_SIZE = 14
+    C_DIST_PHASE_RANDOM,
+) = range(15)
+CFG_SIZE = 15
 # integer configuration (icfg)
 I_NSTEPS, I_NSUB, I_DELAY = range(3)
 ICFG_SIZE = 3
 # per-axis env state and readout rows (ax[row, b, axis]; row-major so each row of the batch
 # is contiguous and the info arrays are plain copies)
-AX_STUCK, AX_UPEND, AX_MEAS, AX_VEL, AX_PREV, AX_APPLIED, AX_SAT, AX_REF = range(8)
-AX_SIZE = 8
+# AX_TOFF: the env's time offset of the plant's periodic disturbance d(t) (s), drawn per episode
+AX_STUCK, AX_UPEND, AX_MEAS, AX_VEL, AX_PREV, AX_APPLIED, AX_SAT, AX_REF, AX_TOFF = range(9)
+AX_SIZE = 9
 # termination status codes
 STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE = 0, 1, 2
 # noise streams
-_STREAM_MEAS, _STREAM_DIST = 0, 1
+_STREAM_MEAS, _STREAM_DIST, _STREAM_PHASE = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
@@ -154,7 +156,7 @@ def _step_one(
             cur,
             ax[AX_STUCK, b, i],
             u,
-            t0,
+            t0 + ax[AX_TOFF, b, i],
             T,
             n_sub,
             mat_T,
@@ -413,6 +415,12 @@ def env_reset(
         ax[AX_APPLIED, b, i] = 0.0
         ax[AX_SAT, b, i] = 0.0
         ax[AX_REF, b, i] = ref_pav[0, 0, i]
+        # the plant's disturbance is not synchronised with the program: its phase is drawn
+        # per episode (from the episode seed) unless the config fixes it
+        toff = 0.0
+        if cfg[C_DIST_PHASE_RANDOM] > 0.0 and nl[p, i, NL_FD] > 0.0:
+            toff = uniform01(seed[b], 0, i, _STREAM_PHASE) / nl[p, i, NL_FD]
+        ax[AX_TOFF, b, i] = toff
         xm = z[b, i, 0]
         if cfg[C_NOISE_STD] > 0.0:
             xm += cfg[C_NOISE_STD] * standard_normal(seed[b], 0, i, _STREAM_MEAS)

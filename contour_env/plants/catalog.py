@@ -184,13 +184,16 @@ def _friction_table() -> tuple[PlantParams, Effects]:
         disturbance_amplitude_N=[8.0, 6.0],
         disturbance_frequency_hz=[1.5, 2.3],
         force_limit_N=1500.0,
-        encoder_resolution_m=1e-6,
+        encoder_resolution_m=1e-7,
         servo_period_s=1e-3,
         notes=(
             "Biaxial ball-screw table in the style of Simba et al. 2018 (M ẍ + f_r + d = f; their "
             "numbers are not in the available pages, these are ours): equivalent masses 42/36 kg, "
             "viscous 60/50 N s/m, Coulomb 25/20 N, static 35/28 N, Stribeck velocity 2 mm/s, "
-            "bounded disturbance 8/6 N at 1.5/2.3 Hz, 1.5 kN limit, 1 µm encoders, T = 1 ms."
+            "bounded disturbance 8/6 N at 1.5/2.3 Hz (phase fixed, or drawn per episode with the "
+            "env's disturbance_phase='random'), 1.5 kN limit, 0.1 µm "
+            "position resolution (a 2^17 counts/rev rotary encoder on a 10 mm lead screw gives "
+            "0.076 µm), T = 1 ms."
         ),
     )
     eff = Effects(

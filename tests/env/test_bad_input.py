@@ -100,3 +100,22 @@ def test_gcode_text_and_file(tmp_path):
     assert env2.unwrapped.core.n_steps == env.unwrapped.core.n_steps
     # the path is in metres: 10 mm leg
     assert env.unwrapped.setup.path.total_length == pytest.approx(0.02 + np.pi * 0.005, rel=1e-9)
+
+
+def test_disturbance_phase_option():
+    import gymnasium as gym
+
+    with pytest.raises(ValueError, match="disturbance_phase: must be one of"):
+        gym.make("contour_env/Contouring-v0", case="sharp-corner", disturbance_phase="late")
+
+    def run(seed, phase):
+        env = gym.make("contour_env/Contouring-v0", case="sharp-corner", disturbance_phase=phase)
+        env.reset(seed=seed)
+        for _ in range(300):
+            _, _, _, _, info = env.step(np.full(2, 0.05, dtype=np.float32))
+        return info["position"]
+
+    # fixed: the seed does not matter (noise-free case); random: it does, and repeats
+    np.testing.assert_array_equal(run(0, "fixed"), run(1, "fixed"))
+    assert not np.array_equal(run(0, "random"), run(1, "random"))
+    np.testing.assert_array_equal(run(1, "random"), run(1, "random"))
