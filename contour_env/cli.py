@@ -389,6 +389,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seconds", type=float, default=2.0, help="time per measurement, s")
     p.add_argument("--json", help="write the results as JSON to this file")
     p.set_defaults(func=cmd_bench)
+    from .cli_rl import add_rl_commands  # train, evaluate, models (residual RL agents)
+
+    add_rl_commands(sub)
     return parser
 
 

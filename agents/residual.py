@@ -1,0 +1,499 @@
+"""Residual RL on top of a classical controller: the env wrappers and the trained agent.
+
+Residual policy learning (Johannink et al. 2019, "Residual Reinforcement Learning for Robot
+Control"; Silver et al. 2018, "Residual Policy Learning"): the applied command is
+
+    a_applied = clip(a_base + scale · clip(a_agent, −1, 1), −1, 1)        (fractions of the
+                                                                            force limit)
+
+with ``a_base`` the base controller's env action (its command in the plant's units divided by
+the force limit, clipped to [−1, 1], float32 — exactly what the controller hands the env when
+it runs as a policy) and ``a_agent`` the agent's action in [−1, 1]. The residual is bounded by
+construction: |a_applied − a_base| ≤ ``scale`` per axis (``scale`` in fractions of the axis
+force limit, default :data:`DEFAULT_SCALE` = 0.05; the base controllers' RMS effort is 1–2 %
+of the limit on ``friction-table`` and 10–30 % on ``hsm2``/``jee-triaxial``, so 5 % is room to
+cancel friction and ripple without letting a bad agent leave the base's neighbourhood; raise
+it explicitly to give the agent more authority). With a zero agent action the wrappers apply
+``a_base`` bit for bit, so they reproduce the base controller exactly.
+
+``observe_base_command`` appends ``a_base`` (the base command about to be applied, as a
+fraction of the force limit) to the observation. Default False: Johannink et al. and
+later residual-RL work report that the residual learns at least as well from the state alone,
+and it keeps the agent independent of the base's gains; measure it with
+``contour-env train ... --observe-base-command`` (not measured here yet).
+
+``action_repeat`` k: the agent acts every k servo periods and its residual is held (zero-order
+hold) in between, while the base controller still runs every servo period. The reward of a
+wrapper step is the mean env reward over the k periods minus ``residual_penalty`` ·
+‖a_agent‖² / n. Default k: one agent action per millisecond
+(:func:`default_action_repeat`), i.e. k = 1 on the 1 ms plants and k = 10 on ``linear-motor``
+(T = 0.1 ms), which keeps the learning problem's horizon in the thousands of steps.
+
+Classes:
+
+- :class:`ResidualWrapper` — ``gymnasium.Wrapper`` over the single env.
+- :class:`ResidualVectorWrapper` — ``gymnasium.vector.VectorWrapper`` over the vectorised env
+  (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``), Gymnasium's
+  NEXT_STEP autoreset (as the env) or SAME_STEP (what stable-baselines3 expects).
+- :class:`ResidualAgent` — a trained model directory as a :class:`agents.base.Controller`
+  (``bind``/``reset``/``act``/``command``/``predict``), scored by
+  :func:`contour_env.evaluation.evaluate` like any controller.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorWrapper
+from gymnasium.vector.utils import batch_space
+
+from .base import Controller, _core_of
+from .registry import controller_names, make_controller
+
+DEFAULT_SCALE = 0.05
+DEFAULT_AGENT_PERIOD_S = 1e-3
+MODEL_FORMAT = "contour_env.residual_agent/1"
+
+
+def default_action_repeat(servo_period_s: float) -> int:
+    """Servo periods per agent action for one agent action per ms (at least 1)."""
+    return max(1, int(round(DEFAULT_AGENT_PERIOD_S / float(servo_period_s))))
+
+
+def _check_scale(scale) -> float:
+    if isinstance(scale, bool) or not isinstance(scale, (int, float, np.number)):
+        raise ValueError(
+            f"scale: expected a number in (0, 2] (fraction of the force limit), got {scale!r}"
+        )
+    s = float(scale)
+    if not (math.isfinite(s) and 0 < s <= 2):
+        raise ValueError(
+            f"scale: must be in (0, 2] (fraction of the force limit; 2 spans the whole "
+            f"[-1, 1] range), got {scale!r}"
+        )
+    return s
+
+
+def _check_repeat(action_repeat, servo_period_s) -> int:
+    if action_repeat is None:
+        return default_action_repeat(servo_period_s)
+    if isinstance(action_repeat, bool) or not isinstance(action_repeat, (int, np.integer)):
+        raise ValueError(f"action_repeat: expected an integer >= 1 or None, got {action_repeat!r}")
+    if action_repeat < 1:
+        raise ValueError(f"action_repeat: must be >= 1 servo period, got {action_repeat}")
+    return int(action_repeat)
+
+
+def _check_penalty(value) -> float:
+    v = float(value)
+    if not (math.isfinite(v) and v >= 0):
+        raise ValueError(f"residual_penalty: must be finite and >= 0, got {value!r}")
+    return v
+
+
+def make_base(base, env, base_kwargs=None) -> Controller:
+    """A base controller bound to ``env``: a registry name (see
+    :func:`agents.registry.controller_names`) or a :class:`Controller` instance."""
+    if isinstance(base, str):
+        if base not in controller_names():
+            raise ValueError(
+                f"base: unknown controller {base!r}; known: {', '.join(controller_names())}"
+            )
+        ctrl = make_controller(base, **(base_kwargs or {}))
+    elif isinstance(base, Controller):
+        ctrl = base
+    else:
+        raise ValueError(
+            f"base: expected a controller name ({', '.join(controller_names())}) or a "
+            f"Controller, got {type(base).__name__}"
+        )
+    return ctrl.bind(env)
+
+
+def _obs_space(core, observe_base_command: bool, n_axes: int) -> spaces.Box:
+    clip = core.config.obs_clip
+    dim = core.obs_dim + (n_axes if observe_base_command else 0)
+    return spaces.Box(-clip, clip, (dim,), dtype=np.float32)
+
+
+def _agent_action(action, shape, what="action") -> np.ndarray:
+    a = np.asarray(action, dtype=np.float64)
+    if a.shape != shape:
+        if a.size == int(np.prod(shape)):
+            a = a.reshape(shape)
+        else:
+            raise ValueError(f"{what}: expected shape {shape}, got {np.shape(action)}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{what}: must be finite (agent action in [-1, 1]), got {a.tolist()}")
+    return np.clip(a, -1.0, 1.0)
+
+
+class ResidualWrapper(gym.Wrapper):
+    """Residual action on a single contour_env env (see the module docstring for the law).
+
+    Parameters
+    ----------
+    env : a ContouringEnv or a wrapper of one (e.g. from ``gymnasium.make``).
+    base : str or Controller — base controller (default ``"pd"``); bound to ``env`` here.
+    scale : float — residual authority, fraction of the force limit per axis (default 0.05).
+    observe_base_command : bool — append the base action (fraction of the force limit) to the
+        observation (default False).
+    action_repeat : int or None — servo periods per agent action (None: one per ms).
+    residual_penalty : float — reward weight on ‖a_agent‖² / n (default 0; the trainer uses 1).
+    base_kwargs : dict — arguments of the base controller when ``base`` is a name.
+
+    ``info`` gains ``base_action`` and ``residual_action`` (fractions of the force limit, the
+    last servo period of the step) and ``servo_steps`` (periods simulated by the step).
+    """
+
+    def __init__(
+        self,
+        env,
+        base="pd",
+        *,
+        scale=DEFAULT_SCALE,
+        observe_base_command=False,
+        action_repeat=None,
+        residual_penalty=0.0,
+        base_kwargs=None,
+    ):
+        holder, core = _core_of(env)
+        if hasattr(holder, "num_envs"):
+            raise ValueError("env: a vectorised env; use ResidualVectorWrapper")
+        super().__init__(env)
+        self.core = core
+        self.scale = _check_scale(scale)
+        self.observe_base_command = bool(observe_base_command)
+        self.action_repeat = _check_repeat(action_repeat, core.T)
+        self.residual_penalty = _check_penalty(residual_penalty)
+        self.base = make_base(base, env, base_kwargs)
+        n = core.dim
+        self.n_axes = n
+        self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+        self.observation_space = _obs_space(core, self.observe_base_command, n)
+        self._base_next = np.zeros((1, n), dtype=np.float32)
+
+    def _observe(self, obs):
+        if not self.observe_base_command:
+            return obs
+        return np.concatenate([obs, self._base_next[0]]).astype(np.float32)
+
+    def _next_base(self) -> None:
+        self._base_next = self.base.action(self.core.signals_batch())
+
+    def reset(self, *, seed=None, options=None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        self.base.reset()
+        self._next_base()
+        return self._observe(obs), info
+
+    def step(self, action):
+        res = self.scale * _agent_action(action, (self.n_axes,))
+        total, steps = 0.0, 0
+        obs = info = None
+        terminated = truncated = False
+        applied = None
+        for _ in range(self.action_repeat):
+            applied = np.clip(self._base_next[0].astype(np.float64) + res, -1.0, 1.0)
+            obs, reward, terminated, truncated, info = self.env.step(applied)
+            total += float(reward)
+            steps += 1
+            base_used = self._base_next[0]
+            self._next_base()
+            if terminated or truncated:
+                break
+        reward = total / steps
+        if self.residual_penalty:
+            reward -= self.residual_penalty * float(np.sum((res / self.scale) ** 2)) / self.n_axes
+        info = dict(info)
+        info["base_action"] = base_used.astype(np.float64)
+        info["residual_action"] = applied - base_used
+        info["servo_steps"] = steps
+        return self._observe(obs), reward, terminated, truncated, info
+
+
+class ResidualVectorWrapper(VectorWrapper):
+    """Residual action on the vectorised contour_env env (same law and arguments as
+    :class:`ResidualWrapper`; the base controller computes on the whole batch).
+
+    ``autoreset_mode``: ``"next_step"`` (default; Gymnasium's NEXT_STEP like the env: the step
+    after an env's episode ends resets it, action ignored, reward 0) or ``"same_step"`` (the
+    env is reset within the step that ends it; the returned observation is the new episode's
+    first, the last one is in ``info["final_obs"]`` with mask ``info["_final_obs"]`` — what
+    stable-baselines3 expects). Within a step of k servo periods an env whose episode ends is
+    held (not stepped) for the remaining periods. Reset seeds follow the env: ``reset(seed=s)``
+    gives env i seed s + i; later autoresets draw from a generator seeded with s.
+    """
+
+    def __init__(
+        self,
+        env,
+        base="pd",
+        *,
+        scale=DEFAULT_SCALE,
+        observe_base_command=False,
+        action_repeat=None,
+        residual_penalty=0.0,
+        base_kwargs=None,
+        autoreset_mode="next_step",
+    ):
+        holder, core = _core_of(env)
+        if not hasattr(holder, "num_envs"):
+            raise ValueError("env: a single env; use ResidualWrapper")
+        super().__init__(env)
+        if autoreset_mode not in ("next_step", "same_step"):
+            raise ValueError(f"autoreset_mode: 'next_step' or 'same_step', got {autoreset_mode!r}")
+        self.core = core
+        self.same_step = autoreset_mode == "same_step"
+        self.metadata = dict(getattr(env, "metadata", {}))
+        self.metadata["autoreset_mode"] = (
+            AutoresetMode.SAME_STEP if self.same_step else AutoresetMode.NEXT_STEP
+        )
+        self.scale = _check_scale(scale)
+        self.observe_base_command = bool(observe_base_command)
+        self.action_repeat = _check_repeat(action_repeat, core.T)
+        self.residual_penalty = _check_penalty(residual_penalty)
+        self.base = make_base(base, env, base_kwargs)
+        n = core.dim
+        self.n_axes = n
+        self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+        self.single_observation_space = _obs_space(core, self.observe_base_command, n)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._rng = np.random.default_rng()
+        self._base_next = np.zeros((self.num_envs, n), dtype=np.float32)
+
+    def _observe(self, obs):
+        if not self.observe_base_command:
+            return obs
+        return np.concatenate([obs, self._base_next], axis=1).astype(np.float32)
+
+    def _next_base(self) -> None:
+        self._base_next = np.asarray(self.base.action(self.core.signals_batch()))
+
+    def reset(self, *, seed=None, options=None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        if isinstance(seed, (int, np.integer)):
+            self._rng = np.random.default_rng(int(seed))
+        self._needs_reset[:] = False
+        self.base.reset()
+        self._next_base()
+        return self._observe(obs), info
+
+    def _reset_envs(self, mask: np.ndarray) -> None:
+        """Reset the envs in ``mask`` (the base controller's state is reset separately, right
+        before its next action, so that every env gets exactly one base action per period)."""
+        for b in np.flatnonzero(mask):
+            self.core.reset_env(int(b), int(self._rng.integers(0, 2**62)))
+
+    def step(self, actions):
+        core = self.core
+        B, n = self.num_envs, self.n_axes
+        res = self.scale * _agent_action(actions, (B, n), "actions")
+        resetting = self._needs_reset.copy()
+        if resetting.any():
+            self._reset_envs(resetting)
+        active = ~resetting
+        total = np.zeros(B)
+        steps = np.zeros(B, dtype=np.int64)
+        terminated = np.zeros(B, dtype=bool)
+        truncated = np.zeros(B, dtype=bool)
+        base_used = self._base_next
+        for j in range(self.action_repeat):
+            if j > 0:
+                self._next_base()
+            base_used = self._base_next
+            applied = np.clip(base_used.astype(np.float64) + res, -1.0, 1.0)
+            core.step(np.ascontiguousarray(applied), active.copy())
+            total[active] += core.reward[active]
+            steps[active] += 1
+            terminated |= active & core.terminated
+            truncated |= active & core.truncated
+            active &= ~(core.terminated | core.truncated)
+            if not active.any():
+                break
+        reward = np.where(steps > 0, total / np.maximum(steps, 1), 0.0)
+        if self.residual_penalty:
+            pen = self.residual_penalty * np.sum((res / self.scale) ** 2, axis=1) / n
+            reward = np.where(steps > 0, reward - pen, 0.0)
+        done = terminated | truncated
+        info = core.batch_info()
+        info["base_action"] = base_used.astype(np.float64)
+        info["residual_action"] = np.clip(base_used + res, -1.0, 1.0) - base_used
+        info["servo_steps"] = steps
+        obs = core.obs.copy()
+        base_reset = resetting
+        if self.same_step and done.any():
+            # the final observation's base part is the last applied base action (the base
+            # controller is not asked again at a terminal state)
+            final = (
+                obs if not self.observe_base_command else np.concatenate([obs, base_used], axis=1)
+            )
+            self._reset_envs(done)
+            obs = core.obs.copy()
+            info["final_obs"] = np.where(done[:, None], final, 0.0).astype(np.float32)
+            info["_final_obs"] = done.copy()
+            base_reset = resetting | done
+            self._needs_reset[:] = False
+        else:
+            self._needs_reset = done
+        if base_reset.any():
+            self.base.reset(base_reset)
+        self._next_base()
+        return self._observe(obs), reward, terminated, truncated, info
+
+
+# --- trained agents -------------------------------------------------------------------------
+
+
+def read_model_metadata(model_dir) -> dict:
+    """The ``agent.json`` of a trained model directory (format, plant, axes, base, scale, …)."""
+    d = Path(model_dir)
+    meta_path = d / "agent.json"
+    if not d.is_dir():
+        raise FileNotFoundError(f"model: {d} is not a directory (expected a trained model DIR)")
+    if not meta_path.is_file():
+        raise ValueError(
+            f"model: {d} holds no agent.json; not a trained residual agent (train one with "
+            "`contour-env train`)"
+        )
+    try:
+        meta = json.loads(meta_path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"model: {meta_path} is not valid JSON ({exc})") from None
+    if meta.get("format") != MODEL_FORMAT:
+        raise ValueError(
+            f"model: {meta_path} has format {meta.get('format')!r}, expected {MODEL_FORMAT!r}"
+        )
+    return meta
+
+
+class ResidualAgent(Controller):
+    """A trained residual agent (model DIR written by ``contour-env train``) as a controller.
+
+    ``bind(env)`` checks that the env's plant and number of axes are those the agent was
+    trained for (otherwise ``ValueError``), binds the base controller and resets. ``act`` reads
+    the bound env's current observation (``env.core.obs``, the observation the env returned
+    last), normalises it with the saved VecNormalize statistics, queries the model every
+    ``action_repeat`` servo periods (deterministic actions by default) and returns
+    (a_base + scale · a_agent) × force limit, in the plant's units. ``action`` returns the
+    applied fraction exactly as :class:`ResidualWrapper` computes it, so
+    :func:`contour_env.evaluation.evaluate` scores the agent as it was trained.
+    """
+
+    name = "residual"
+
+    def __init__(self, model_dir, *, deterministic: bool = True, device: str = "cpu"):
+        from .rl.checkpoint import load_model, load_normalization
+
+        d = Path(model_dir)
+        meta = read_model_metadata(d)
+        self._setup(
+            meta,
+            load_model(d / "model.zip", meta["algo"], device=device),
+            load_normalization(d / "normalization.json"),
+            deterministic,
+        )
+        self.model_dir = d
+
+    @classmethod
+    def from_parts(cls, meta: dict, model, normalizer, *, deterministic: bool = True):
+        """An agent from an in-memory sb3 model and observation normaliser (used by the
+        trainer's periodic evaluation); ``meta`` as ``agent.json``."""
+        agent = cls.__new__(cls)
+        agent._setup(meta, model, normalizer, deterministic)
+        agent.model_dir = Path("<in memory>")
+        return agent
+
+    def _setup(self, meta, model, normalizer, deterministic):
+        Controller.__init__(self)
+        self.meta = meta
+        self.model = model
+        self.norm = normalizer
+        self.deterministic = bool(deterministic)
+        self.scale = float(meta["scale"])
+        self.observe_base_command = bool(meta["observe_base_command"])
+        self.action_repeat = int(meta["action_repeat"])
+        self.base_name = meta["base"]
+        self.base_kwargs = dict(meta.get("base_kwargs") or {})
+        self.base: Controller | None = None
+        self._res = None
+        self._count = None
+
+    def bind(self, env) -> ResidualAgent:
+        _, core = _core_of(env)
+        plant = core.setup.plant
+        want_plant, want_axes = self.meta["plant"], int(self.meta["n_axes"])
+        if plant.n_axes != want_axes:
+            raise ValueError(
+                f"env: the agent in {self.model_dir} was trained for a {want_axes}-axis plant "
+                f"({want_plant!r}); the env has {plant.n_axes} axes ({plant.name!r})"
+            )
+        if plant.name != want_plant:
+            raise ValueError(
+                f"env: the agent in {self.model_dir} was trained for plant {want_plant!r}; the "
+                f"env's plant is {plant.name!r} (train an agent for it with `contour-env train`)"
+            )
+        obs_dim = core.obs_dim + (want_axes if self.observe_base_command else 0)
+        if obs_dim != int(self.meta["obs_dim"]):
+            raise ValueError(
+                f"env: observation size {obs_dim} differs from the agent's {self.meta['obs_dim']}"
+                " (preview_times_s or observation options changed)"
+            )
+        self.base = make_base(self.base_name, env, self.base_kwargs)
+        super().bind(env)
+        return self
+
+    def reset(self, mask=None) -> None:
+        if self.base is None:
+            return
+        self.base.reset(mask)
+        if mask is None or self._res is None:
+            self._res = np.zeros((self.n_envs, self.n_axes))
+            self._count = np.zeros(self.n_envs, dtype=np.int64)
+        else:
+            self._res[mask] = 0.0
+            self._count[mask] = 0
+
+    def residual(self, obs: np.ndarray, base_action: np.ndarray) -> np.ndarray:
+        """The agent's action in [-1, 1] (B, A) for raw env observations (B, obs_dim)."""
+        x = np.asarray(obs, dtype=np.float32)
+        if self.observe_base_command:
+            x = np.concatenate([x, np.asarray(base_action, dtype=np.float32)], axis=1)
+        x = self.norm(x)
+        a, _ = self.model.predict(x, deterministic=self.deterministic)
+        return np.clip(np.asarray(a, dtype=np.float64).reshape(x.shape[0], -1), -1.0, 1.0)
+
+    def applied_action(self, signals: dict) -> np.ndarray:
+        """The applied env action (B, A), float64 fractions of the force limit."""
+        if self.base is None:
+            raise ValueError("residual agent: call bind(env) first")
+        from contour_env.env.core import signals_to_batch
+
+        sig = signals_to_batch(signals)
+        base_a = np.asarray(self.base.action(sig))
+        B = base_a.shape[0]
+        due = self._count[:B] % self.action_repeat == 0
+        if due.any():
+            a = self.residual(self._core.obs[:B], base_a)
+            self._res[:B][due] = a[due]
+        self._count[:B] += 1
+        return np.clip(base_a.astype(np.float64) + self.scale * self._res[:B], -1.0, 1.0)
+
+    def act(self, signals: dict) -> np.ndarray:
+        return self.applied_action(signals) * self.force_limit
+
+    def action(self, signals: dict) -> np.ndarray:
+        return self.applied_action(signals)
+
+
+def residual_controller(model_dir, **kwargs) -> ResidualAgent:
+    """The ``residual`` row of ``contour-env compare``: the agent in ``model_dir`` (unbound;
+    ``compare`` binds it to each env, which checks plant and axes)."""
+    return ResidualAgent(model_dir, **kwargs)

@@ -1,0 +1,262 @@
+"""The training configuration: one frozen record, validated, written as JSON and compared on
+``--resume`` (every key but ``timesteps`` must match; ``timesteps`` may grow to extend a run).
+
+Defaults (documented choices, not tuned by a hyperparameter search — see the README's
+"Train your own residual agent" for what has been measured):
+
+- network: two hidden layers of 64 units (actor and critic), tanh-free ReLU MLPs as in sb3.
+  Small enough for fast CPU updates on 2 cores and a model file far below 5 MB.
+- ``n_envs``: 1 for SAC/TD3 (off-policy: one gradient step per env step; more envs add samples
+  the updates cannot keep up with on 2 cores), 8 for PPO (on-policy: batches of
+  n_envs × n_steps samples; with one fixed case the 8 envs are one compiled vectorised env).
+- ``gamma`` 0.98: the contour error responds to a residual within a few tens of ms, a
+  horizon of ~50 agent steps (1 ms each) is enough and keeps the value targets low-variance.
+- reward: the env's default (−ε / 10 µm per servo period, mean over the agent step) minus
+  ``residual_penalty`` · ‖a_agent‖² / n with ``residual_penalty`` 1.0: a residual at full
+  authority costs as much as 10 µm of contour error. Measured on ``sharp-corner`` (SAC on PD,
+  seed 0, one run each): with 0.01 the agent lowered RMS ε from 11.7 to 3.6 µm but spent
+  2.5–4.7× PD's RMS effort; with 1.0 it reached 1.8 µm at RMS effort [22.9, 18.0] N against
+  PD's [27.7, 15.9] N (README, "Train your own residual agent").
+- ``scale`` 0.05 of the force limit and one agent action per ms: see :mod:`agents.residual`.
+- TD3 exploration noise σ = 0.1 (sb3's suggestion); SAC's default entropy tuning.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from agents.registry import controller_names
+from agents.residual import DEFAULT_SCALE
+
+ALGOS = ("sac", "td3", "ppo")
+PATH_VARIETY = ("circles", "splines")
+CONFIG_FORMAT = "contour_env.train_config/1"
+# keys that may differ on --resume
+RESUMABLE_KEYS = ("timesteps",)
+
+
+def _file_digest(path: str) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that defines a training run (SI units)."""
+
+    cases: tuple = ()
+    plant: str | None = None
+    gcode: tuple = ()
+    gcode_sha256: tuple = ()
+    base: str = "pd"
+    algo: str = "sac"
+    timesteps: int = 20_000
+    seed: int = 0
+    n_envs: int | None = None
+    # residual law (agents.residual)
+    scale: float = DEFAULT_SCALE
+    observe_base_command: bool = False
+    action_repeat: int | None = None
+    residual_penalty: float = 1.0
+    # env reward weights (ContouringEnv)
+    w_contour: float = 1.0
+    w_lag: float = 0.0
+    w_effort: float = 0.0
+    # domain randomisation
+    randomize_plant: float = 0.0
+    randomize_feedrate: float = 0.0
+    path_variety: tuple = ()
+    circle_radius_m: tuple = (0.005, 0.05)
+    spline_size_m: float = 0.03
+    # learner
+    net_arch: tuple = (64, 64)
+    learning_rate: float = 3e-4
+    gamma: float = 0.98
+    batch_size: int | None = None
+    buffer_size: int = 200_000
+    learning_starts: int = 1_000
+    ppo_n_steps: int = 256
+    # bookkeeping
+    eval_freq: int | None = None
+    checkpoint_freq: int | None = None
+    keep_checkpoints: int = 2
+    torch_threads: int = 1
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        fix = object.__setattr__
+        for key in (
+            "cases",
+            "gcode",
+            "gcode_sha256",
+            "path_variety",
+            "net_arch",
+            "circle_radius_m",
+        ):
+            fix(self, key, tuple(getattr(self, key)))
+        if self.algo not in ALGOS:
+            raise ValueError(f"algo: must be one of {', '.join(ALGOS)}, got {self.algo!r}")
+        if self.base not in controller_names():
+            raise ValueError(
+                f"base: unknown controller {self.base!r}; known: {', '.join(controller_names())}"
+            )
+        if not self.cases and not self.gcode:
+            raise ValueError(
+                "cases: give at least one case (--case/--cases) or --plant with --gcode"
+            )
+        if self.gcode and not self.plant:
+            raise ValueError("plant: G-code training paths need --plant")
+        if self.gcode and not self.gcode_sha256:
+            for f in self.gcode:
+                if not Path(f).is_file():
+                    raise FileNotFoundError(f"gcode: no such file {f!r}")
+            fix(self, "gcode_sha256", tuple(_file_digest(f) for f in self.gcode))
+        from contour_env.cases import get_case
+
+        plants = {get_case(c).plant for c in self.cases}
+        if self.plant:
+            plants.add(self.plant)
+        if len(plants) != 1:
+            raise ValueError(
+                f"cases: an agent is trained for one plant; these cases use {sorted(plants)}"
+            )
+        _int(self, "timesteps", 1)
+        _int(self, "seed", 0)
+        _int(self, "buffer_size", 1)
+        _int(self, "learning_starts", 0)
+        _int(self, "ppo_n_steps", 2)
+        _int(self, "keep_checkpoints", 1)
+        _int(self, "torch_threads", 1)
+        for key in ("n_envs", "batch_size", "action_repeat", "eval_freq", "checkpoint_freq"):
+            if getattr(self, key) is not None:
+                _int(self, key, 1)
+        for key, lo, hi in (
+            ("scale", 0.0, 2.0),
+            ("randomize_plant", 0.0, 0.99),
+            ("randomize_feedrate", 0.0, 0.99),
+            ("gamma", 0.0, 1.0),
+        ):
+            _num(self, key, lo, hi, open_low=(key in ("scale",)))
+        for key in ("residual_penalty", "w_contour", "w_lag", "w_effort"):
+            _num(self, key, 0.0, math.inf)
+        _num(self, "learning_rate", 0.0, 1.0, open_low=True)
+        _num(self, "spline_size_m", 0.0, 10.0, open_low=True)
+        bad = [v for v in self.path_variety if v not in PATH_VARIETY]
+        if bad:
+            raise ValueError(
+                f"path_variety: unknown {bad}; allowed: {', '.join(PATH_VARIETY)} (G-code files "
+                "with --gcode)"
+            )
+        r = self.circle_radius_m
+        if len(r) != 2 or not (0 < float(r[0]) <= float(r[1])):
+            raise ValueError(f"circle_radius_m: (min, max) with 0 < min <= max (m), got {r!r}")
+        if not self.net_arch or any(
+            not isinstance(h, int) or isinstance(h, bool) or h < 1 for h in self.net_arch
+        ):
+            raise ValueError(f"net_arch: hidden layer sizes, integers >= 1, got {self.net_arch!r}")
+
+    # --- derived ---------------------------------------------------------------------------
+    @property
+    def plant_name(self) -> str:
+        if self.plant:
+            return self.plant
+        from contour_env.cases import get_case
+
+        return get_case(self.cases[0]).plant
+
+    @property
+    def num_envs(self) -> int:
+        return self.n_envs or (8 if self.algo == "ppo" else 1)
+
+    @property
+    def randomized(self) -> bool:
+        """Whether episodes differ in plant, feed or path (then each env is rebuilt per
+        episode instead of one compiled vectorised env)."""
+        return bool(
+            self.randomize_plant
+            or self.randomize_feedrate
+            or self.path_variety
+            or len(self.cases) + len(self.gcode) > 1
+        )
+
+    def eval_every(self) -> int:
+        return self.eval_freq or max(1000, self.timesteps // 10)
+
+    def checkpoint_every(self) -> int:
+        return self.checkpoint_freq or max(1000, self.timesteps // 5)
+
+    def env_config(self) -> dict:
+        """Reward keywords of the env."""
+        return {"w_contour": self.w_contour, "w_lag": self.w_lag, "w_effort": self.w_effort}
+
+    def wrapper_kwargs(self) -> dict:
+        return {
+            "base": self.base,
+            "scale": self.scale,
+            "observe_base_command": self.observe_base_command,
+            "action_repeat": self.action_repeat,
+            "residual_penalty": self.residual_penalty,
+        }
+
+    # --- JSON ------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        for key, value in d.items():
+            if isinstance(value, tuple):
+                d[key] = list(value)
+        return {"format": CONFIG_FORMAT, **d}
+
+    def to_dict_args(self) -> dict:
+        """The constructor's keyword arguments (``TrainConfig(**cfg.to_dict_args())`` is
+        ``cfg``); handy for a changed copy."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> TrainConfig:
+        data = dict(data)
+        fmt = data.pop("format", None)
+        if fmt != CONFIG_FORMAT:
+            raise ValueError(f"config: format {fmt!r}, expected {CONFIG_FORMAT!r}")
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"config: unknown keys {unknown}")
+        return cls(**data)
+
+    def differences(self, other: TrainConfig) -> list[str]:
+        """Keys whose values differ (``RESUMABLE_KEYS`` excluded), as 'key: a -> b'."""
+        a, b = self.to_dict(), other.to_dict()
+        return [
+            f"{k}: {a[k]!r} (checkpoint) vs {b[k]!r} (now)"
+            for k in a
+            if k not in RESUMABLE_KEYS and a.get(k) != b.get(k)
+        ]
+
+
+def _int(cfg, key, lo):
+    v = getattr(cfg, key)
+    if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+        raise ValueError(f"{key}: expected an integer >= {lo}, got {v!r}")
+
+
+def _num(cfg, key, lo, hi, open_low=False):
+    v = getattr(cfg, key)
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"{key}: expected a number, got {v!r}")
+    ok = math.isfinite(v) and (v > lo if open_low else v >= lo) and v <= hi
+    if not ok:
+        lo_s = f"> {lo}" if open_low else f">= {lo}"
+        raise ValueError(f"{key}: must be {lo_s} and <= {hi}, got {v!r}")
+    object.__setattr__(cfg, key, float(v))
+
+
+def load_config(path) -> TrainConfig:
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"config: {path} is not valid JSON ({exc})") from None
+    return TrainConfig.from_dict(data)

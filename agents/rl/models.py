@@ -1,0 +1,74 @@
+"""Trained agents on disk: the shipped ones (``agents/models/<name>/``) and any model DIR.
+
+A shipped agent is a model DIR written by ``contour-env train`` (``agent.json``, ``model.zip``,
+``normalization.json``, …) copied to ``agents/models/<name>``; ``contour-env models`` lists
+them with their plant, base, training cases and budget, and :func:`shipped_model_for` picks
+the one for a plant (``--controllers residual`` without ``--model``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..residual import read_model_metadata
+
+MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+
+
+def list_models(root=None) -> list[dict]:
+    """One row per model DIR directly under ``root`` (default: the shipped agents): name,
+    path, plant, axes, algo, base, cases, timesteps, scale. Unreadable folders are reported
+    with an ``error`` key instead of being skipped silently."""
+    root = Path(root) if root is not None else MODELS_DIR
+    if not root.is_dir():
+        return []
+    rows = []
+    for d in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        try:
+            m = read_model_metadata(d)
+        except (ValueError, FileNotFoundError) as exc:
+            rows.append({"name": d.name, "path": str(d), "error": str(exc)})
+            continue
+        rows.append(
+            {
+                "name": d.name,
+                "path": str(d),
+                "plant": m["plant"],
+                "n_axes": m["n_axes"],
+                "algo": m["algo"],
+                "base": m["base"],
+                "cases": m.get("cases", []) + m.get("gcode", []),
+                "timesteps": m.get("timesteps"),
+                "scale": m["scale"],
+                "train_wall_s": m.get("train_wall_s"),
+            }
+        )
+    return rows
+
+
+def shipped_model_for(plant: str, root=None) -> Path:
+    """The shipped model DIR for ``plant``; none → ``ValueError`` listing what exists."""
+    rows = [r for r in list_models(root) if "error" not in r]
+    for r in rows:
+        if r["plant"] == plant:
+            return Path(r["path"])
+    have = ", ".join(sorted({r["plant"] for r in rows})) or "none"
+    raise ValueError(
+        f"plant: no shipped residual agent for plant {plant!r} (shipped for: {have}); train one "
+        "with `contour-env train` and pass --model DIR"
+    )
+
+
+def format_models(rows: list[dict]) -> str:
+    if not rows:
+        return "no trained agents found"
+    lines = [f"{'name':22s} {'plant':15s} {'algo':5s} {'base':13s} {'timesteps':>10s}  cases"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"{r['name']:22s} unreadable: {r['error']}")
+            continue
+        lines.append(
+            f"{r['name']:22s} {r['plant']:15s} {r['algo']:5s} {r['base']:13s} "
+            f"{r['timesteps'] or 0:>10d}  {', '.join(r['cases'])}"
+        )
+    return "\n".join(lines)

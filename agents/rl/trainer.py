@@ -1,0 +1,343 @@
+"""Train a residual agent with stable-baselines3 (SAC, TD3, PPO) and write a model DIR.
+
+``train(config, out_dir, resume=False)`` writes, in ``out_dir``:
+
+- ``config.json``: the exact :class:`~agents.rl.config.TrainConfig`;
+- ``agent.json``: what :class:`agents.residual.ResidualAgent` needs (algo, plant, axes,
+  observation size, base, scale, action repeat) and the budget and cases;
+- ``model.zip``: the final sb3 model;
+- ``vecnormalize.pkl``, ``normalization.json``: observation statistics (sb3's pickle, for
+  resuming; plain JSON, what the agent reads);
+- ``learning_curve.json``, ``learning_curve.png``: evaluation RMS contour error (µm) vs
+  timesteps, the base's level as a horizontal line;
+- ``checkpoints/step_*``: periodic checkpoints (:mod:`agents.rl.checkpoint`);
+- ``tb/``: TensorBoard logs, only when ``tensorboard`` is installed (it is not a dependency).
+
+Timesteps count agent steps (one agent step = ``action_repeat`` servo periods) summed over the
+envs, as in sb3. Seeding: ``seed`` seeds Python, NumPy and PyTorch (sb3's ``set_random_seed``),
+the task sampler (``seed``) and the env resets (``seed + 1``); a run is reproducible on the same
+machine and thread count, a resumed run continues from the checkpoint's weights, statistics and
+replay buffer but not from the exact random-generator states.
+
+Evaluation (the learning curve): every ``eval_every()`` timesteps the current policy (with the
+current statistics, deterministic) is scored by :func:`contour_env.evaluation.evaluate` on each
+training case / G-code file without randomisation, seed 0; the curve is the mean RMS contour
+error over them.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from contour_env import ENV_ID
+from contour_env.evaluation import evaluate
+from contour_env.io import atomic_write_json
+
+from ..registry import make_controller
+from ..residual import MODEL_FORMAT, ResidualAgent
+from .checkpoint import (
+    algo_class,
+    latest_checkpoint,
+    load_model,
+    normalizer_of,
+    write_checkpoint,
+)
+from .config import TrainConfig, load_config
+from .tasks import TaskSampler
+from .vec import ResidualTrainVecEnv
+
+CLIP_OBS = 10.0
+
+
+def tensorboard_available() -> bool:
+    return importlib.util.find_spec("tensorboard") is not None
+
+
+def _atomic_save(out: Path, name: str, save) -> None:
+    """``save(tmp_path)`` then rename to ``out/name``."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=Path(name).suffix, dir=out)
+    os.close(fd)
+    try:
+        save(tmp)
+        os.replace(tmp, out / name)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:
+    kw = {
+        "learning_rate": cfg.learning_rate,
+        "gamma": cfg.gamma,
+        "policy_kwargs": {"net_arch": list(cfg.net_arch)},
+    }
+    if cfg.algo in ("sac", "td3"):
+        kw.update(
+            buffer_size=cfg.buffer_size,
+            learning_starts=cfg.learning_starts,
+            batch_size=cfg.batch_size or 256,
+        )
+        if cfg.algo == "td3":
+            from stable_baselines3.common.noise import NormalActionNoise
+
+            kw["action_noise"] = NormalActionNoise(np.zeros(n_actions), 0.1 * np.ones(n_actions))
+    else:
+        kw.update(n_steps=cfg.ppo_n_steps, batch_size=cfg.batch_size or 64)
+    return kw
+
+
+class Evaluator:
+    """Scores the current policy on the nominal tasks (mean RMS contour error, µm)."""
+
+    def __init__(self, sampler: TaskSampler, cfg: TrainConfig):
+        self.tasks = sampler.nominal_tasks()
+        self.cfg = cfg
+        self.base_rms = float(
+            np.mean([self._score(task, make_controller(cfg.base)) for task in self.tasks])
+        )
+
+    def _score(self, task, policy) -> float:
+        env = gym.make(ENV_ID, **task)
+        m = evaluate(env, policy, seed=0)
+        rms = m["rms_contour_error_um"]
+        return float("inf") if rms is None or not m["completed"] else float(rms)
+
+    def __call__(self, meta: dict, model, normalizer) -> float:
+        agent = ResidualAgent.from_parts(meta, model, normalizer)
+        return float(np.mean([self._score(task, agent) for task in self.tasks]))
+
+
+def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> dict:
+    g = venv.groups[0]
+    return {
+        "format": MODEL_FORMAT,
+        "algo": cfg.algo,
+        "plant": cfg.plant_name,
+        "n_axes": int(g.n_axes),
+        "obs_dim": int(g.single_observation_space.shape[0]),
+        "base": cfg.base,
+        "base_kwargs": {},
+        "scale": cfg.scale,
+        "observe_base_command": cfg.observe_base_command,
+        "action_repeat": int(g.action_repeat),
+        "servo_period_s": float(g.core.T),
+        "cases": list(cfg.cases),
+        "gcode": [os.path.basename(f) for f in cfg.gcode],
+        "timesteps": int(timesteps),
+        "seed": cfg.seed,
+    }
+
+
+def plot_learning_curve(curve: list[dict], base_rms: float, base: str, title: str, out) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from contour_env.io import atomic_save_figure
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    x = [p["timesteps"] for p in curve]
+    y = [p["rms_contour_error_um"] for p in curve]
+    ax.plot(x, y, "o-", ms=3, label="residual agent (deterministic)")
+    ax.axhline(base_rms, color="k", ls="--", lw=1, label=f"base {base}: {base_rms:.3g} µm")
+    ax.set_xlabel("timesteps (agent steps)")
+    ax.set_ylabel("RMS contour error (µm)")
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    atomic_save_figure(fig, out, dpi=110)
+    plt.close(fig)
+
+
+def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool = True, log=print):
+    """Train (or, with ``resume``, continue) and write ``out_dir``; returns a summary dict."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    cfg = config
+    out = Path(out_dir)
+    ckpt_root = out / "checkpoints"
+    ckpt = None
+    curve: list[dict] = []
+    if resume:
+        if not (out / "config.json").is_file():
+            raise ValueError(f"--resume: {out} holds no training run (no config.json)")
+        old = load_config(out / "config.json")
+        diff = old.differences(cfg)
+        if diff:
+            raise ValueError(
+                f"--resume: the configuration differs from the run in {out}: {'; '.join(diff)}"
+                " (only timesteps may change; use a new --out for a new configuration)"
+            )
+        ckpt = latest_checkpoint(ckpt_root)
+        if ckpt is None:
+            raise ValueError(f"--resume: {ckpt_root} holds no checkpoint")
+        state = json.loads((ckpt / "state.json").read_text())
+        curve = list(state["curve"])
+        if state["timesteps"] >= cfg.timesteps:
+            raise ValueError(
+                f"timesteps: the checkpoint has {state['timesteps']} timesteps already; give "
+                f"--timesteps > {state['timesteps']} to continue"
+            )
+    elif (out / "config.json").exists() or ckpt_root.exists():
+        raise ValueError(
+            f"--out: {out} already holds a training run; use --resume to continue it or "
+            "another --out"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "config.json", cfg.to_dict())
+
+    torch.set_num_threads(cfg.torch_threads)
+    set_random_seed(cfg.seed)
+    sampler = TaskSampler(cfg, cfg.seed)
+    raw = ResidualTrainVecEnv(sampler, cfg.num_envs, cfg.wrapper_kwargs(), seed=cfg.seed + 1)
+    monitored = VecMonitor(raw)
+    if ckpt is not None:
+        venv = VecNormalize.load(str(ckpt / "vecnormalize.pkl"), monitored)
+        venv.training = True
+    else:
+        venv = VecNormalize(
+            monitored, norm_obs=True, norm_reward=False, clip_obs=CLIP_OBS, gamma=cfg.gamma
+        )
+    tb = str(out / "tb") if tensorboard_available() else None
+    if tb is None:
+        log("TensorBoard logs off: tensorboard is not installed (pip install tensorboard)")
+    n_actions = raw.action_space.shape[0]
+    if ckpt is not None:
+        model = load_model(ckpt / "model.zip", cfg.algo, env=venv)
+        model.tensorboard_log = tb
+        if (ckpt / "replay_buffer.pkl").is_file():
+            model.load_replay_buffer(ckpt / "replay_buffer.pkl")
+        log(f"resuming from {ckpt} at {model.num_timesteps} timesteps")
+    else:
+        model = algo_class(cfg.algo)(
+            "MlpPolicy",
+            venv,
+            seed=cfg.seed,
+            device="cpu",
+            verbose=0,
+            tensorboard_log=tb,
+            **_model_kwargs(cfg, n_actions),
+        )
+    evaluator = Evaluator(sampler, cfg)
+    log(
+        f"base {cfg.base}: RMS contour error {evaluator.base_rms:.4g} µm (mean over "
+        f"{len(evaluator.tasks)} evaluation task(s)); action repeat {raw.action_repeat}, "
+        f"{cfg.num_envs} env(s), {'randomised' if cfg.randomized else 'fixed'} tasks"
+    )
+
+    def meta_now():
+        return _metadata(cfg, raw, model.num_timesteps)
+
+    def write_files(folder: Path, with_buffer: bool) -> None:
+        model.save(folder / "model.zip")
+        venv.save(str(folder / "vecnormalize.pkl"))
+        atomic_write_json(folder / "normalization.json", normalizer_of(venv).to_dict())
+        atomic_write_json(folder / "agent.json", meta_now())
+        if with_buffer and cfg.algo != "ppo":
+            model.save_replay_buffer(folder / "replay_buffer.pkl")
+        atomic_write_json(
+            folder / "state.json", {"timesteps": int(model.num_timesteps), "curve": curve}
+        )
+
+    class Hooks(BaseCallback):
+        def __init__(self):
+            super().__init__()
+            self.bar = None
+            self.next_eval = (curve[-1]["timesteps"] if curve else 0) + cfg.eval_every()
+            self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
+
+        def _on_training_start(self):
+            if progress:
+                from tqdm import tqdm
+
+                self.bar = tqdm(
+                    total=cfg.timesteps, initial=self.num_timesteps, unit="step", desc="train"
+                )
+
+        def _evaluate(self):
+            rms = evaluator(meta_now(), model, normalizer_of(venv))
+            curve.append({"timesteps": int(self.num_timesteps), "rms_contour_error_um": rms})
+            if self.bar is not None:
+                self.bar.set_postfix(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
+            self.logger.record("eval/rms_contour_error_um", rms)
+
+        def _on_step(self) -> bool:
+            if self.bar is not None:
+                self.bar.update(self.num_timesteps - self.bar.n)
+            if self.num_timesteps >= self.next_eval:
+                self._evaluate()
+                self.next_eval += cfg.eval_every()
+            if self.num_timesteps >= self.next_ckpt:
+                write_checkpoint(
+                    ckpt_root,
+                    self.num_timesteps,
+                    lambda d: write_files(d, True),
+                    cfg.keep_checkpoints,
+                )
+                self.next_ckpt += cfg.checkpoint_every()
+            return True
+
+        def _on_training_end(self):
+            if self.bar is not None:
+                self.bar.close()
+
+    hooks = Hooks()
+    t0 = time.perf_counter()
+    remaining = cfg.timesteps - model.num_timesteps
+    model.learn(
+        total_timesteps=remaining,
+        callback=hooks,
+        reset_num_timesteps=ckpt is None,
+        tb_log_name=cfg.algo,
+        progress_bar=False,
+    )
+    wall = time.perf_counter() - t0
+    # the final model (the last periodic evaluation may precede the last gradient steps)
+    rms = evaluator(meta_now(), model, normalizer_of(venv))
+    if curve and curve[-1]["timesteps"] == model.num_timesteps:
+        curve.pop()
+    curve.append({"timesteps": int(model.num_timesteps), "rms_contour_error_um": rms})
+    write_checkpoint(
+        ckpt_root, model.num_timesteps, lambda d: write_files(d, True), cfg.keep_checkpoints
+    )
+    # the final files: each written to a temporary name and renamed
+    _atomic_save(out, "model.zip", lambda p: model.save(p))
+    _atomic_save(out, "vecnormalize.pkl", lambda p: venv.save(p))
+    atomic_write_json(out / "normalization.json", normalizer_of(venv).to_dict())
+    meta = meta_now()
+    meta["train_wall_s"] = wall
+    meta["base_rms_contour_error_um"] = evaluator.base_rms
+    meta["final_rms_contour_error_um"] = curve[-1]["rms_contour_error_um"]
+    atomic_write_json(out / "agent.json", meta)
+    atomic_write_json(
+        out / "learning_curve.json",
+        {"base": cfg.base, "base_rms_contour_error_um": evaluator.base_rms, "curve": curve},
+    )
+    title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or meta['gcode'])}"
+    plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")
+    venv.close()
+    for tmp in ckpt_root.glob(".tmp-*"):
+        shutil.rmtree(tmp, ignore_errors=True)
+    return {
+        "out": str(out),
+        "timesteps": int(model.num_timesteps),
+        "wall_s": wall,
+        "base_rms_contour_error_um": evaluator.base_rms,
+        "final_rms_contour_error_um": curve[-1]["rms_contour_error_um"],
+        "curve": curve,
+    }

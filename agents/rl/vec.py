@@ -1,0 +1,139 @@
+"""The stable-baselines3 VecEnv the trainers use, built on :class:`ResidualVectorWrapper`.
+
+- One fixed task (a single case or G-code file, no randomisation): one compiled vectorised env
+  of ``n_envs`` envs (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``),
+  stepped by one kernel call per servo period.
+- Randomised tasks: ``n_envs`` vectorised envs of one env each; when an episode ends its env is
+  rebuilt on a newly drawn task (:class:`agents.rl.tasks.TaskSampler`) — a path's reference
+  table is built once per episode (milliseconds against the seconds an episode takes).
+
+Episode ends follow stable-baselines3: the returned observation is the next episode's first,
+``infos[i]["terminal_observation"]`` the last one, ``infos[i]["TimeLimit.truncated"]`` set when
+the path ended (truncation) rather than the crash guard (termination).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv
+
+from contour_env import ENV_ID
+
+from ..residual import ResidualVectorWrapper
+
+
+def make_residual_vec(task: dict, n: int, wrapper_kwargs: dict) -> ResidualVectorWrapper:
+    kw = dict(task)
+    params = kw.pop("plant_params", None)
+    if params is not None and len(params) != n:
+        params = [params[i % len(params)] for i in range(n)]
+    venv = gym.make_vec(
+        ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", plant_params=params, **kw
+    )
+    return ResidualVectorWrapper(venv, autoreset_mode="same_step", **wrapper_kwargs)
+
+
+class ResidualTrainVecEnv(VecEnv):
+    """sb3 VecEnv of ``n_envs`` residual envs drawn from ``sampler`` (seeded by ``seed``)."""
+
+    def __init__(self, sampler, n_envs: int, wrapper_kwargs: dict, seed: int):
+        self.sampler = sampler
+        self.wrapper_kwargs = dict(wrapper_kwargs)
+        self.rng = np.random.default_rng(seed)
+        self.resample = not sampler.fixed
+        if self.resample:
+            self.groups = [self._build(1) for _ in range(n_envs)]
+        else:
+            self.groups = [self._build(n_envs)]
+        g0 = self.groups[0]
+        self._actions = None
+        super().__init__(n_envs, g0.single_observation_space, g0.single_action_space)
+
+    def _build(self, n: int) -> ResidualVectorWrapper:
+        return make_residual_vec(self.sampler.sample(), n, self.wrapper_kwargs)
+
+    def _seed(self) -> int:
+        return int(self.rng.integers(0, 2**31))
+
+    def _slices(self):
+        start = 0
+        for g in self.groups:
+            yield g, slice(start, start + g.num_envs)
+            start += g.num_envs
+
+    @property
+    def action_repeat(self) -> int:
+        return self.groups[0].action_repeat
+
+    def reset(self):
+        obs = np.empty((self.num_envs, *self.observation_space.shape), dtype=np.float32)
+        for g, sl in self._slices():
+            o, _ = g.reset(seed=self._seed())
+            obs[sl] = o
+        self._reset_seeds()
+        self._reset_options()
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+
+    def step_wait(self):
+        n = self.num_envs
+        obs = np.empty((n, *self.observation_space.shape), dtype=np.float32)
+        rewards = np.empty(n, dtype=np.float32)
+        dones = np.zeros(n, dtype=bool)
+        infos = [{} for _ in range(n)]
+        for gi, (g, sl) in enumerate(list(self._slices())):
+            o, r, term, trunc, info = g.step(self._actions[sl])
+            obs[sl] = o
+            rewards[sl] = r
+            done = term | trunc
+            dones[sl] = done
+            for j in np.flatnonzero(done):
+                i = sl.start + int(j)
+                infos[i]["terminal_observation"] = info["final_obs"][j].copy()
+                infos[i]["TimeLimit.truncated"] = bool(trunc[j] and not term[j])
+                infos[i]["termination_reason"] = str(info["termination_reason"][j]) or None
+            if self.resample and done.any():
+                fresh = self._build(1)
+                self.groups[gi] = fresh
+                o, _ = fresh.reset(seed=self._seed())
+                obs[sl] = o
+        return obs, rewards, dones, infos
+
+    def close(self) -> None:
+        for g in self.groups:
+            g.close()
+
+    # --- the rest of sb3's VecEnv interface ------------------------------------------------
+    def _indices(self, indices):
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return indices
+
+    def _group_of(self, i):
+        for g, sl in self._slices():
+            if sl.start <= i < sl.stop:
+                return g
+        raise IndexError(i)
+
+    def get_attr(self, attr_name, indices=None):
+        if attr_name == "render_mode":
+            return [None for _ in self._indices(indices)]
+        return [getattr(self._group_of(i), attr_name) for i in self._indices(indices)]
+
+    def set_attr(self, attr_name, value, indices=None):
+        for i in self._indices(indices):
+            setattr(self._group_of(i), attr_name, value)
+
+    def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
+        return [
+            getattr(self._group_of(i), method_name)(*method_args, **method_kwargs)
+            for i in self._indices(indices)
+        ]
+
+    def env_is_wrapped(self, wrapper_class, indices=None):
+        return [False for _ in self._indices(indices)]

@@ -1,0 +1,238 @@
+"""``contour-env train``, ``evaluate`` and ``models``: residual RL agents on the command line.
+
+``add_rl_commands(subparsers)`` registers the three subcommands on the main parser
+(:func:`contour_env.cli.build_parser`). Errors are ``ValueError``/``FileNotFoundError`` with the
+parameter named; ``contour_env.cli.main`` prints them and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .cli import _add_target_args, _print_metrics, _target_kwargs
+
+ALGOS = ("sac", "td3", "ppo")
+
+
+def _floats(text: str, name: str, n: int | None = None) -> tuple:
+    try:
+        vals = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise ValueError(f"{name}: expected comma-separated numbers, got {text!r}") from None
+    if n is not None and len(vals) != n:
+        raise ValueError(f"{name}: expected {n} comma-separated numbers, got {text!r}")
+    return vals
+
+
+def config_from_args(args):
+    """The :class:`agents.rl.TrainConfig` of ``contour-env train``'s arguments."""
+    from agents.rl import PATH_VARIETY, TrainConfig
+
+    cases = []
+    if args.case:
+        cases.append(args.case)
+    if args.cases:
+        cases += [c.strip() for c in args.cases.split(",") if c.strip()]
+    cases = list(dict.fromkeys(cases))
+    gcode = list(args.gcode or [])
+    if gcode and not args.plant:
+        raise ValueError(
+            "--gcode: needs --plant (hsm2, jee-triaxial, linear-motor, friction-table)"
+        )
+    if not cases and not gcode:
+        raise ValueError(
+            "--case/--cases: give at least one training case (or --plant with --gcode)"
+        )
+    variety = tuple(v.strip() for v in (args.paths or "").split(",") if v.strip())
+    bad = [v for v in variety if v not in PATH_VARIETY]
+    if bad:
+        raise ValueError(f"--paths: unknown {bad}; allowed: {', '.join(PATH_VARIETY)}")
+    kw = dict(
+        cases=tuple(cases),
+        plant=args.plant,
+        gcode=tuple(gcode),
+        base=args.base,
+        algo=args.algo,
+        timesteps=args.timesteps,
+        seed=args.seed,
+        n_envs=args.n_envs,
+        scale=args.scale,
+        observe_base_command=args.observe_base_command,
+        action_repeat=args.action_repeat,
+        residual_penalty=args.residual_penalty,
+        randomize_plant=args.randomize_plant,
+        randomize_feedrate=args.randomize_feedrate,
+        path_variety=variety,
+        eval_freq=args.eval_freq,
+        checkpoint_freq=args.checkpoint_freq,
+        torch_threads=args.threads,
+    )
+    if args.net_arch:
+        try:
+            kw["net_arch"] = tuple(int(v) for v in args.net_arch.split(","))
+        except ValueError:
+            raise ValueError(
+                f"--net-arch: comma-separated layer sizes, got {args.net_arch!r}"
+            ) from None
+    if args.circle_radius:
+        kw["circle_radius_m"] = _floats(args.circle_radius, "--circle-radius", 2)
+    return TrainConfig(**kw)
+
+
+def cmd_train(args) -> int:
+    from agents.rl import train
+
+    cfg = config_from_args(args)
+    res = train(cfg, args.out, resume=args.resume, progress=not args.no_progress)
+    print(
+        f"trained {res['timesteps']} timesteps in {res['wall_s']:.1f} s; RMS contour error "
+        f"{res['final_rms_contour_error_um']:.4g} µm (base {cfg.base}: "
+        f"{res['base_rms_contour_error_um']:.4g} µm)"
+    )
+    print(f"wrote {args.out} (model.zip, agent.json, config.json, learning_curve.png, …)")
+    return 0
+
+
+def cmd_evaluate(args) -> int:
+    import gymnasium as gym
+
+    from agents import make_controller
+    from agents.residual import ResidualAgent
+
+    from . import ENV_ID
+    from .evaluation import evaluate
+    from .io import atomic_write_json
+
+    if not args.case and not args.gcode:
+        raise ValueError("evaluate: give --case X, or --plant P with --gcode FILE")
+    agent = ResidualAgent(args.model)
+    kw = _target_kwargs(args)
+    env = gym.make(ENV_ID, **kw)
+    setup = env.unwrapped.setup
+    m_agent = evaluate(env, agent, seed=args.seed)
+    m_base = evaluate(gym.make(ENV_ID, **kw), make_controller(agent.base_name), seed=args.seed)
+    _print_metrics(f"residual ({agent.meta['algo']} on {agent.base_name})", m_agent)
+    _print_metrics(f"base {agent.base_name}", m_base)
+    ratio = None
+    if m_agent["rms_contour_error_um"] and m_base["rms_contour_error_um"]:
+        ratio = m_agent["rms_contour_error_um"] / m_base["rms_contour_error_um"]
+        print(f"RMS contour error agent/base: {ratio:.3f}")
+    if args.json:
+        atomic_write_json(
+            args.json,
+            {
+                "case": setup.name,
+                "plant": setup.plant.name,
+                "model": str(args.model),
+                "base": agent.base_name,
+                "seed": args.seed,
+                "ideal": bool(kw["ideal"]),
+                "agent": m_agent,
+                "base_metrics": m_base,
+                "rms_ratio_agent_to_base": ratio,
+            },
+        )
+        print(f"wrote {args.json}")
+    return 0
+
+
+def cmd_models(args) -> int:
+    from agents.rl.models import format_models, list_models
+
+    print(format_models(list_models(args.dir)))
+    return 0
+
+
+def add_rl_commands(sub) -> None:
+    """Register ``train``, ``evaluate`` and ``models`` on the main parser's subparsers."""
+    p = sub.add_parser("train", help="train a residual RL agent on top of a classical controller")
+    p.add_argument("--case", help="training case (see `contour-env cases`)")
+    p.add_argument("--cases", help="comma-separated training cases (one plant)")
+    p.add_argument("--plant", help="plant, with --gcode training programs")
+    p.add_argument(
+        "--gcode", action="append", help="G-code training program (repeatable), with --plant"
+    )
+    p.add_argument("--base", default="pd", help="base controller (default pd)")
+    p.add_argument("--algo", choices=ALGOS, default="sac", help="sb3 algorithm (default sac)")
+    p.add_argument(
+        "--timesteps", type=int, default=20_000, help="agent steps in total (default 20000)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of every generator (default 0)")
+    p.add_argument("--out", required=True, help="output DIR (model, config, curve, checkpoints)")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out from its newest checkpoint (same configuration)",
+    )
+    p.add_argument("--n-envs", type=int, default=None, help="envs (default 1 SAC/TD3, 8 PPO)")
+    p.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="residual authority, fraction of the force limit (default 0.05)",
+    )
+    p.add_argument(
+        "--observe-base-command",
+        action="store_true",
+        help="append the base command to the agent's observation",
+    )
+    p.add_argument(
+        "--action-repeat",
+        type=int,
+        default=None,
+        help="servo periods per agent action (default: one action per ms)",
+    )
+    p.add_argument(
+        "--residual-penalty",
+        type=float,
+        default=None,
+        help="reward weight on the squared agent action (default 1.0)",
+    )
+    p.add_argument(
+        "--randomize-plant",
+        type=float,
+        default=0.0,
+        metavar="FRACTION",
+        help="true-plant parameters ×U[1-F, 1+F] per episode (default 0)",
+    )
+    p.add_argument(
+        "--randomize-feedrate",
+        type=float,
+        default=0.0,
+        metavar="FRACTION",
+        help="feedrate ×U[1-F, 1+F] per episode (default 0)",
+    )
+    p.add_argument("--paths", help="random path variety: circles,splines (default none)")
+    p.add_argument(
+        "--circle-radius", help="random circle radius range MIN,MAX in m (default 0.005,0.05)"
+    )
+    p.add_argument("--net-arch", help="hidden layer sizes, e.g. 64,64 (default)")
+    p.add_argument("--eval-freq", type=int, default=None, help="timesteps between evaluations")
+    p.add_argument(
+        "--checkpoint-freq", type=int, default=None, help="timesteps between checkpoints"
+    )
+    p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_train_entry)
+
+    p = sub.add_parser("evaluate", help="score a trained residual agent against its base")
+    _add_target_args(p)
+    p.add_argument("--model", required=True, help="trained model DIR (from `contour-env train`)")
+    p.add_argument("--json", help="write the metrics as JSON to this file")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("models", help="list the shipped residual agents")
+    p.add_argument("--dir", default=None, help="list the model DIRs in this folder instead")
+    p.set_defaults(func=cmd_models)
+
+
+def _train_entry(args: argparse.Namespace) -> int:
+    from agents.residual import DEFAULT_SCALE
+
+    if args.scale is None:
+        args.scale = DEFAULT_SCALE
+    if args.residual_penalty is None:
+        from agents.rl.config import TrainConfig
+
+        args.residual_penalty = TrainConfig.__dataclass_fields__["residual_penalty"].default
+    return cmd_train(args)

@@ -1,0 +1,191 @@
+"""Residual wrappers: a zero residual is the base controller exactly; bounded residual."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import contour_env  # noqa: F401
+from agents import controller_names, make_controller
+from agents.residual import ResidualVectorWrapper, ResidualWrapper, default_action_repeat
+from contour_env import ENV_ID
+from contour_env.evaluation import evaluate
+from contour_env.plants.randomize import randomized
+
+SHORT = "G21 G90 G17\nG01 X2 F1200\nG01 Y2\n"
+
+
+def _plant_for(name):
+    return "jee-triaxial" if name == "jee-ccc" else "friction-table"
+
+
+class Zero:
+    def __init__(self, n):
+        self.n = n
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        return np.zeros(self.n, dtype=np.float32), state
+
+
+@pytest.mark.parametrize("name", controller_names())
+def test_zero_residual_reproduces_every_controller_exactly(name):
+    plant = _plant_for(name)
+    m_base = evaluate(gym.make(ENV_ID, plant=plant, path=SHORT), make_controller(name))
+    w = ResidualWrapper(gym.make(ENV_ID, plant=plant, path=SHORT), name, action_repeat=1)
+    m_res = evaluate(w, Zero(w.n_axes))
+    assert m_res == m_base
+
+
+def test_zero_residual_gives_identical_info_every_step_with_action_repeat():
+    """k servo periods per wrapper step: the wrapper's info after each step equals the base
+    policy's info after the same number of periods."""
+    env = gym.make(ENV_ID, case="sharp-corner")
+    base = make_controller("adaptive-ccc").bind(env)
+    obs, _ = env.reset(seed=3)
+    start, infos = np.ones(1, dtype=bool), []
+    while True:
+        a, _ = base.predict(obs, episode_start=start)
+        start = np.zeros(1, dtype=bool)
+        obs, _, term, trunc, info = env.step(a)
+        infos.append(info)
+        if term or trunc:
+            break
+    w = ResidualWrapper(gym.make(ENV_ID, case="sharp-corner"), "adaptive-ccc", action_repeat=4)
+    w.reset(seed=3)
+    k = 0
+    while True:
+        _, _, term, trunc, info = w.step(np.zeros(2))
+        k += info["servo_steps"]
+        ref = infos[k - 1]
+        for key in ("position", "force", "reference"):
+            np.testing.assert_array_equal(info[key], ref[key])
+        assert info["contour_error"] == ref["contour_error"]
+        if term or trunc:
+            break
+    assert k == len(infos)
+
+
+def test_vector_wrapper_zero_residual_equals_base_on_the_vector_env():
+    n = 3
+    params = randomized(gym.make(ENV_ID, case="sharp-corner").unwrapped.plant.params, 0.2, n, 1)
+    kw = dict(num_envs=n, vectorization_mode="vector_entry_point", plant_params=params)
+    venv = gym.make_vec(ENV_ID, case="sharp-corner", **kw)
+    base = make_controller("ccc").bind(venv)
+    obs, _ = venv.reset(seed=5)
+    w = ResidualVectorWrapper(gym.make_vec(ENV_ID, case="sharp-corner", **kw), "ccc")
+    w.reset(seed=5)
+    start = np.ones(n, dtype=bool)
+    for _ in range(venv.unwrapped.core.n_steps - 1):
+        a, _ = base.predict(obs, episode_start=start)
+        start[:] = False
+        obs, r1, t1, tr1, i1 = venv.step(a)
+        _, r2, t2, tr2, i2 = w.step(np.zeros((n, 2)))
+        np.testing.assert_array_equal(i1["position"], i2["position"])
+        np.testing.assert_array_equal(i1["force"], i2["force"])
+        np.testing.assert_array_equal(r1, r2)
+        np.testing.assert_array_equal(t1 | tr1, t2 | tr2)
+    assert tr1.all()
+
+
+def test_vector_wrapper_matches_single_wrapper_with_actions_and_repeat():
+    rng = np.random.default_rng(0)
+    kw = dict(plant="friction-table", path=SHORT)
+    single = ResidualWrapper(gym.make(ENV_ID, **kw), "pd", action_repeat=3, residual_penalty=0.1)
+    vec = ResidualVectorWrapper(
+        gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", **kw),
+        "pd",
+        action_repeat=3,
+        residual_penalty=0.1,
+    )
+    o1, _ = single.reset(seed=7)
+    o2, _ = vec.reset(seed=7)
+    np.testing.assert_array_equal(o1, o2[0])
+    while True:
+        a = rng.uniform(-1, 1, size=(2, 2)).astype(np.float32)
+        o1, r1, t1, tr1, _ = single.step(a[0])
+        o2, r2, t2, tr2, _ = vec.step(a)
+        np.testing.assert_array_equal(o1, o2[0])
+        assert r1 == pytest.approx(r2[0], rel=1e-12, abs=0)
+        assert (t1, tr1) == (t2[0], tr2[0])
+        if t1 or tr1:
+            break
+
+
+def test_residual_is_bounded_by_scale():
+    w = ResidualWrapper(gym.make(ENV_ID, plant="friction-table", path=SHORT), "pd", scale=0.03)
+    w.reset(seed=0)
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        _, _, _, _, info = w.step(rng.uniform(-5, 5, 2))
+        assert np.all(np.abs(info["residual_action"]) <= 0.03 + 1e-12)
+
+
+def test_observe_base_command_appends_the_next_base_action():
+    w = ResidualWrapper(
+        gym.make(ENV_ID, plant="friction-table", path=SHORT), "pd", observe_base_command=True
+    )
+    obs, _ = w.reset(seed=0)
+    assert obs.shape == (w.core.obs_dim + 2,) and w.observation_space.contains(obs)
+    for _ in range(20):
+        nxt, _, _, _, info = w.step(np.full(2, 0.5))
+        np.testing.assert_array_equal(obs[-2:], info["base_action"].astype(np.float32))
+        obs = nxt
+
+
+def test_same_step_autoreset_returns_next_episode_and_final_obs():
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        plant="friction-table",
+        path=SHORT,
+    )
+    w = ResidualVectorWrapper(venv, "pd", autoreset_mode="same_step")
+    obs0, _ = w.reset(seed=0)
+    while True:
+        obs, _, term, trunc, info = w.step(np.zeros((2, 2)))
+        if (term | trunc).any():
+            break
+    assert info["_final_obs"].all()
+    np.testing.assert_array_equal(obs[0], obs0[0])  # the named path restarts at rest
+    assert not np.array_equal(info["final_obs"][0], obs0[0])
+    assert (w.core.k == 0).all()
+
+
+def test_default_action_repeat_is_one_agent_action_per_ms():
+    assert default_action_repeat(1e-3) == 1
+    assert default_action_repeat(1e-4) == 10
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"scale": 0.0}, "scale"),
+        ({"scale": float("nan")}, "scale"),
+        ({"action_repeat": 0}, "action_repeat"),
+        ({"residual_penalty": -1}, "residual_penalty"),
+        ({"base": "nope"}, r"base: unknown controller 'nope'.*pd"),
+    ],
+)
+def test_bad_arguments_are_clear_errors(kwargs, match):
+    kw = {"base": "pd", **kwargs}
+    with pytest.raises(ValueError, match=match):
+        ResidualWrapper(gym.make(ENV_ID, plant="friction-table", path=SHORT), **kw)
+
+
+def test_non_finite_agent_action_is_an_error():
+    w = ResidualWrapper(gym.make(ENV_ID, plant="friction-table", path=SHORT))
+    w.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        w.step(np.array([np.nan, 0.0]))
+    with pytest.raises(ValueError, match="shape"):
+        w.step(np.zeros(3))
+
+
+def test_single_and_vector_wrappers_refuse_the_other_kind():
+    venv = gym.make_vec(
+        ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", case="sharp-corner"
+    )
+    with pytest.raises(ValueError, match="ResidualVectorWrapper"):
+        ResidualWrapper(venv)
+    with pytest.raises(ValueError, match="ResidualWrapper"):
+        ResidualVectorWrapper(gym.make(ENV_ID, case="sharp-corner"))

@@ -1,0 +1,230 @@
+"""Tiny end-to-end training runs, model DIRs, checkpoints, resume and mismatch errors."""
+
+import json
+import shutil
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import contour_env  # noqa: F401
+from agents.residual import ResidualAgent, ResidualWrapper, residual_controller
+from agents.rl import TrainConfig, train
+from agents.rl.checkpoint import checkpoint_dirs, load_model, load_normalization
+from agents.rl.models import format_models, list_models, shipped_model_for
+from contour_env import ENV_ID
+from contour_env.cli import main
+from contour_env.evaluation import evaluate, run_episode
+
+SHORT = "G21 G90 G17\nG01 X2 F1200\nG01 Y2\n"
+TINY = dict(
+    plant="friction-table",
+    timesteps=300,
+    seed=0,
+    learning_starts=50,
+    buffer_size=2000,
+    batch_size=32,
+    eval_freq=150,
+    checkpoint_freq=150,
+    ppo_n_steps=32,
+    net_arch=(16, 16),
+)
+
+
+@pytest.fixture(scope="module")
+def gcode(tmp_path_factory):
+    p = tmp_path_factory.mktemp("gcode") / "short.nc"
+    p.write_text(SHORT)
+    return str(p)
+
+
+@pytest.fixture(scope="module")
+def sac_run(tmp_path_factory, gcode):
+    out = tmp_path_factory.mktemp("runs") / "sac"
+    cfg = TrainConfig(gcode=(gcode,), algo="sac", **TINY)
+    res = train(cfg, out, progress=False, log=lambda s: None)
+    return out, cfg, res
+
+
+@pytest.mark.parametrize("algo", ["td3", "ppo"])
+def test_tiny_training_writes_a_usable_model_dir(tmp_path, gcode, algo):
+    n_envs = 2 if algo == "ppo" else None
+    cfg = TrainConfig(gcode=(gcode,), algo=algo, n_envs=n_envs, **TINY)
+    res = train(cfg, tmp_path / algo, progress=False, log=lambda s: None)
+    _check_run(tmp_path / algo, res, algo)
+
+
+def test_tiny_sac_training_writes_a_usable_model_dir(sac_run):
+    out, _, res = sac_run
+    _check_run(out, res, "sac")
+
+
+def _check_run(out, res, algo):
+    for name in (
+        "model.zip",
+        "agent.json",
+        "config.json",
+        "normalization.json",
+        "vecnormalize.pkl",
+        "learning_curve.json",
+        "learning_curve.png",
+    ):
+        assert (out / name).is_file(), name
+    assert res["timesteps"] >= 300
+    meta = json.loads((out / "agent.json").read_text())
+    assert (meta["algo"], meta["plant"], meta["n_axes"]) == (algo, "friction-table", 2)
+    curve = json.loads((out / "learning_curve.json").read_text())
+    assert [p["timesteps"] for p in curve["curve"]][-1] == res["timesteps"]
+    assert curve["base_rms_contour_error_um"] > 0
+    assert checkpoint_dirs(out / "checkpoints")
+    m = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), ResidualAgent(out))
+    assert m["completed"] and m["rms_contour_error_um"] > 0
+
+
+def test_save_load_gives_identical_actions(sac_run):
+    out, _, _ = sac_run
+    newest = checkpoint_dirs(out / "checkpoints")[-1]  # a second, independent save
+    a1 = ResidualAgent(out)
+    model2 = load_model(newest / "model.zip", "sac")
+    a2 = ResidualAgent.from_parts(
+        a1.meta, model2, load_normalization(newest / "normalization.json")
+    )
+    r1 = run_episode(gym.make(ENV_ID, plant="friction-table", path=SHORT), a1)
+    r2 = run_episode(gym.make(ENV_ID, plant="friction-table", path=SHORT), a2)
+    np.testing.assert_array_equal(r1.force, r2.force)
+    np.testing.assert_array_equal(r1.contour_error, r2.contour_error)
+
+
+def test_agent_through_evaluate_equals_the_wrapper_it_was_trained_in(sac_run):
+    out, _, _ = sac_run
+    agent = ResidualAgent(out)
+    m_agent = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), agent)
+    w = ResidualWrapper(
+        gym.make(ENV_ID, plant="friction-table", path=SHORT),
+        agent.base_name,
+        scale=agent.scale,
+        action_repeat=agent.action_repeat,
+    )
+
+    class ModelPolicy:
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            a, _ = agent.model.predict(agent.norm(obs[None]), deterministic=True)
+            return a[0], state
+
+    assert evaluate(w, ModelPolicy()) == m_agent
+
+
+def test_agent_for_another_plant_or_axis_count_is_refused(sac_run):
+    out, _, _ = sac_run
+    with pytest.raises(ValueError, match="trained for plant 'friction-table'.*'hsm2'"):
+        evaluate(gym.make(ENV_ID, case="hsm2-circle-III"), ResidualAgent(out))
+    with pytest.raises(ValueError, match="2-axis plant"):
+        residual_controller(out).bind(gym.make(ENV_ID, case="jee-circle3d"))
+
+
+def test_corrupt_checkpoint_is_a_clear_error_and_the_previous_is_kept(sac_run, tmp_path):
+    out0, cfg, _ = sac_run
+    out = tmp_path / "run"
+    shutil.copytree(out0, out)
+    dirs = checkpoint_dirs(out / "checkpoints")
+    assert len(dirs) == 2
+    prev_bytes = (dirs[0] / "model.zip").read_bytes()
+    data = bytearray((dirs[-1] / "model.zip").read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    (dirs[-1] / "model.zip").write_bytes(bytes(data))
+    cfg2 = TrainConfig(**{**cfg.to_dict_args(), "timesteps": 450})
+    with pytest.raises(ValueError, match=r"corrupt.*previous checkpoint .*step_.* is kept"):
+        train(cfg2, out, resume=True, progress=False, log=lambda s: None)
+    assert (dirs[0] / "model.zip").read_bytes() == prev_bytes
+    # half-written: a checkpoint directory without its manifest
+    (dirs[-1] / "manifest.json").unlink()
+    with pytest.raises(ValueError, match="half-written"):
+        train(cfg2, out, resume=True, progress=False, log=lambda s: None)
+
+
+def test_resume_with_a_changed_configuration_names_the_key(sac_run):
+    out, cfg, _ = sac_run
+    changed = TrainConfig(**{**cfg.to_dict_args(), "scale": 0.1, "timesteps": 450})
+    with pytest.raises(ValueError, match=r"differs.*scale: 0\.05 \(checkpoint\) vs 0\.1"):
+        train(changed, out, resume=True, progress=False, log=lambda s: None)
+
+
+def test_resume_continues_to_the_new_budget(sac_run, tmp_path):
+    out0, cfg, _ = sac_run
+    out = tmp_path / "run"
+    shutil.copytree(out0, out)
+    cfg2 = TrainConfig(**{**cfg.to_dict_args(), "timesteps": 400})
+    res = train(cfg2, out, resume=True, progress=False, log=lambda s: None)
+    assert res["timesteps"] >= 400
+    assert res["curve"][0]["timesteps"] == 150  # the curve goes on from the checkpoint's
+
+
+def test_new_run_into_an_existing_out_dir_is_refused(sac_run):
+    out, cfg, _ = sac_run
+    with pytest.raises(ValueError, match="--resume"):
+        train(cfg, out, progress=False, log=lambda s: None)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"algo": "dqn"}, r"algo: must be one of sac, td3, ppo"),
+        ({"base": "nope"}, r"base: unknown controller 'nope'"),
+        ({"cases": ("sharp-corner", "hsm2-circle-I"), "plant": None, "gcode": ()}, "one plant"),
+        ({"path_variety": ("squares",)}, r"path_variety: unknown \['squares'\]"),
+        ({"randomize_plant": 1.5}, "randomize_plant"),
+        ({"timesteps": 0}, "timesteps"),
+    ],
+)
+def test_bad_configuration_is_a_clear_error(gcode, kwargs, match):
+    kw = {**TINY, "gcode": (gcode,), **kwargs}
+    with pytest.raises(ValueError, match=match):
+        TrainConfig(**kw)
+
+
+def test_randomised_tasks_train_with_circles_splines_and_plant_variants(tmp_path, gcode):
+    cfg = TrainConfig(
+        gcode=(gcode,),
+        algo="ppo",
+        n_envs=2,
+        path_variety=("circles", "splines"),
+        circle_radius_m=(0.002, 0.004),
+        spline_size_m=0.004,
+        randomize_plant=0.2,
+        randomize_feedrate=0.2,
+        **{**TINY, "timesteps": 200},
+    )
+    assert cfg.randomized
+    res = train(cfg, tmp_path / "rand", progress=False, log=lambda s: None)
+    assert res["timesteps"] >= 200
+
+
+def test_cli_train_evaluate_and_models(tmp_path, gcode, capsys, sac_run):
+    out = tmp_path / "cli"
+    rc = main(
+        [
+            "train", "--plant", "friction-table", "--gcode", gcode, "--base", "pd",
+            "--algo", "ppo", "--timesteps", "64", "--seed", "1", "--out", str(out),
+            "--n-envs", "2", "--net-arch", "16,16", "--no-progress",
+        ]
+    )  # fmt: skip
+    assert rc == 0
+    assert json.loads((out / "config.json").read_text())["seed"] == 1
+    js = tmp_path / "ev.json"
+    rc = main(
+        ["evaluate", "--model", str(out), "--plant", "friction-table", "--gcode", gcode,
+         "--json", str(js)]
+    )  # fmt: skip
+    assert rc == 0
+    data = json.loads(js.read_text())
+    assert data["plant"] == "friction-table" and data["agent"]["completed"]
+    assert main(["evaluate", "--model", str(out), "--case", "hsm2-circle-I"]) == 2
+    assert "trained for plant 'friction-table'" in capsys.readouterr().err
+    # models: the shipped folder (possibly empty) and any folder of model DIRs
+    assert main(["models"]) == 0
+    rows = list_models(out.parent)
+    assert {r["name"] for r in rows} == {"cli"}
+    assert "friction-table" in format_models(rows)
+    with pytest.raises(ValueError, match="no shipped residual agent for plant 'hsm2'"):
+        shipped_model_for("hsm2", root=out.parent)
+    assert shipped_model_for("friction-table", root=out.parent) == out
