@@ -53,20 +53,23 @@ def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
     """Fill obs[b] for reference index kk from the measured state (layout: see ContouringEnv)."""
     dim = ax.shape[2]
     clip = cfg[C_OBS_CLIP]
+    # reciprocals once per call: a multiply per field instead of a division
+    inv_err = 1.0 / cfg[C_ERR_SCALE]
+    inv_verr = 1.0 / cfg[C_VERR_SCALE]
     o = 0
     # task-frame position error Fᵀ(x_d − x_meas), scaled
     for r in range(dim):
         acc = 0.0
         for c in range(dim):
             acc += frame[kk, c, r] * (ref_pav[kk, 0, c] - ax[AX_MEAS, b, c])
-        obs[b, o] = min(max(acc / cfg[C_ERR_SCALE], -clip), clip)
+        obs[b, o] = min(max(acc * inv_err, -clip), clip)
         o += 1
     # task-frame velocity error Fᵀ(v_d − v_meas), scaled
     for r in range(dim):
         acc = 0.0
         for c in range(dim):
             acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[AX_VEL, b, c])
-        obs[b, o] = min(max(acc / cfg[C_VERR_SCALE], -clip), clip)
+        obs[b, o] = min(max(acc * inv_verr, -clip), clip)
         o += 1
     obs[b, o] = min(max(scal[kk, 0] / cfg[C_FEED_SCALE], -clip), clip)
     obs[b, o + 1] = min(max(scal[kk, 1] / cfg[C_ACC_SCALE], -clip), clip)
@@ -76,12 +79,12 @@ def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
     # nominal feed covers in that time (≈ (1, 0, 0) on a straight at full feed)
     for j in range(preview.shape[0]):
         kj = min(kk + preview[j], n_steps - 1)
-        scale = cfg[C_FEED_SCALE] * preview[j] * cfg[C_T]
+        inv_scale = 1.0 / (cfg[C_FEED_SCALE] * preview[j] * cfg[C_T])
         for r in range(dim):
             acc = 0.0
             for c in range(dim):
                 acc += frame[kk, c, r] * (ref_pav[kj, 0, c] - ref_pav[kk, 0, c])
-            obs[b, o] = min(max(acc / scale, -clip), clip)
+            obs[b, o] = min(max(acc * inv_scale, -clip), clip)
             o += 1
     for r in range(dim):
         obs[b, o] = ax[AX_PREV, b, r]
