@@ -14,10 +14,37 @@ from contour_env.plants.randomize import randomized
 from .registry import make_controller
 
 CVAR_FRACTION = 0.10
+# the row name of a trained residual agent (``model``: a model DIR, or the shipped agent)
+RESIDUAL = "residual"
 
 
-def compare(controllers: list[str], *, seed: int = 0, progress=None, **env_kwargs) -> dict:
+def comparable_names() -> list[str]:
+    """Names ``compare`` accepts: every fixed controller of the registry and ``residual``."""
+    from .registry import controller_names
+
+    return [*controller_names(), RESIDUAL]
+
+
+def bound_controller(name: str, env, model=None):
+    """``name`` bound to ``env``; ``residual`` is the agent in ``model`` (a model DIR written
+    by ``contour-env train``) or, without one, the shipped agent for the env's plant
+    (``ValueError`` when there is none, or when the agent was trained for another plant or
+    number of axes)."""
+    if name != RESIDUAL:
+        return make_controller(name).bind(env)
+    from .residual import ResidualAgent
+    from .rl.models import shipped_model_for
+
+    core = env.core if hasattr(env, "core") else env.unwrapped.core
+    model_dir = model if model is not None else shipped_model_for(core.setup.plant.name)
+    return ResidualAgent(model_dir).bind(env)
+
+
+def compare(
+    controllers: list[str], *, seed: int = 0, progress=None, model=None, **env_kwargs
+) -> dict:
     """Run every controller on the same env; an unstable one is reported, not raised.
+    ``model``: the model DIR of the ``residual`` row (default: the shipped agent).
 
     Returns {"case": ..., "plant": ..., "results": [{"controller", "stable", metrics...}],
     "records": {name: EpisodeRecord}} (records are for plotting; not JSON).
@@ -27,7 +54,7 @@ def compare(controllers: list[str], *, seed: int = 0, progress=None, **env_kwarg
     for name in controllers:
         env = gym.make(ENV_ID, **env_kwargs)
         setup = env.unwrapped.setup
-        controller = make_controller(name).bind(env)
+        controller = bound_controller(name, env, model)
         record = run_episode(env, controller, seed=seed)
         m = score(record)
         row = {"controller": name, "stable": record.completed, **m}
@@ -45,6 +72,7 @@ def robustness(
     *,
     seed: int = 0,
     progress=None,
+    model=None,
     **env_kwargs,
 ) -> list[dict]:
     """Each controller over ``episodes`` true-plant variations (every per-axis parameter of
@@ -63,7 +91,7 @@ def robustness(
             plant_params=variants,
             **env_kwargs,
         )
-        controller = make_controller(name).bind(venv)
+        controller = bound_controller(name, venv, model)
         obs, _ = venv.reset(seed=seed)
         core = venv.core if hasattr(venv, "core") else venv.unwrapped.core
         n = core.n_steps - 1

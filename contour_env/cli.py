@@ -129,17 +129,20 @@ def cmd_run(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from agents.compare import compare, format_table, robustness
-    from agents.registry import controller_names
+    from agents.compare import comparable_names, compare, format_table, robustness
 
     from .io import atomic_write_json
     from .plotting import plot_runs
 
     names = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    known = controller_names()
+    known = comparable_names()
     unknown = [c for c in names if c not in known]
     if not names or unknown:
         raise ValueError(f"controllers: unknown {unknown or names!r}; known: {', '.join(known)}")
+    if args.model is not None and "residual" not in names:
+        raise ValueError(
+            "model: --model DIR is the agent of the 'residual' row; add residual to --controllers"
+        )
     kw = _target_kwargs(args)
 
     def show(name, row):
@@ -149,7 +152,7 @@ def cmd_compare(args) -> int:
             text = f"{rms:.2f} µm" if rms is not None else "n/a"
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
 
-    result = compare(names, seed=args.seed, progress=show, **kw)
+    result = compare(names, seed=args.seed, progress=show, model=args.model, **kw)
     robust = None
     if args.randomize is not None:
         from tqdm import tqdm
@@ -160,7 +163,13 @@ def cmd_compare(args) -> int:
             bar.update(1)
 
         robust = robustness(
-            names, args.randomize, args.episodes, seed=args.seed, progress=tick, **kw
+            names,
+            args.randomize,
+            args.episodes,
+            seed=args.seed,
+            progress=tick,
+            model=args.model,
+            **kw,
         )
         bar.close()
     print(format_table(result, robust))
@@ -312,8 +321,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--controllers",
         default="pd,ccc,adaptive-ccc",
-        help="comma-separated controllers (pd, ccc, adaptive-ccc, jee-ccc); "
+        help="comma-separated controllers (pd, ccc, adaptive-ccc, jee-ccc, residual); "
         "default pd,ccc,adaptive-ccc",
+    )
+    p.add_argument(
+        "--model",
+        default=None,
+        metavar="DIR",
+        help="model DIR (contour-env train --out) of the residual row; default: the shipped "
+        "agent for the plant (contour-env models)",
     )
     p.add_argument("--json", help="write the results as JSON to this file")
     p.add_argument("--plot", help="write contour error vs time for all controllers (PNG)")

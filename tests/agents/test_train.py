@@ -228,3 +228,45 @@ def test_cli_train_evaluate_and_models(tmp_path, gcode, capsys, sac_run):
     with pytest.raises(ValueError, match="no shipped residual agent for plant 'hsm2'"):
         shipped_model_for("hsm2", root=out.parent)
     assert shipped_model_for("friction-table", root=out.parent) == out
+
+
+def test_compare_puts_the_agent_in_the_same_table(sac_run, tmp_path, gcode, capsys):
+    out, _, _ = sac_run
+    js = tmp_path / "cmp.json"
+    rc = main(
+        ["compare", "--plant", "friction-table", "--gcode", gcode, "--controllers",
+         "pd,residual", "--model", str(out), "--json", str(js)]
+    )  # fmt: skip
+    assert rc == 0
+    rows = {r["controller"]: r for r in json.loads(js.read_text())["results"]}
+    assert set(rows) == {"pd", "residual"}
+    # the residual row is the project's one scoring function applied to the agent
+    m = evaluate(gym.make(ENV_ID, plant="friction-table", path=gcode), ResidualAgent(out))
+    assert rows["residual"]["rms_contour_error_um"] == m["rms_contour_error_um"]
+    assert rows["residual"]["rms_effort"] == m["rms_effort"]
+    # robustness over plant variations runs the agent on the vectorised env
+    from agents.compare import robustness
+
+    rob = robustness(["residual"], 0.2, 3, model=out, plant="friction-table", path=gcode)
+    assert rob[0]["controller"] == "residual" and np.isfinite(rob[0]["mean_rms_contour_error_um"])
+
+
+def test_compare_residual_errors(sac_run, gcode, capsys):
+    out, _, _ = sac_run
+    # an agent of another plant
+    assert main(["compare", "--case", "hsm2-circle-I", "--controllers", "pd,residual",
+                 "--model", str(out)]) == 2  # fmt: skip
+    assert "trained for plant 'friction-table'" in capsys.readouterr().err
+    # --model without a residual row
+    assert main(["compare", "--case", "sharp-corner", "--controllers", "pd",
+                 "--model", str(out)]) == 2  # fmt: skip
+    assert "add residual to --controllers" in capsys.readouterr().err
+    # a plant without a shipped agent
+    from agents.compare import bound_controller
+    from agents.rl.models import list_models
+
+    shipped = {r["plant"] for r in list_models() if "error" not in r}
+    env = gym.make(ENV_ID, case="jee-circle3d")
+    if "jee-triaxial" not in shipped:
+        with pytest.raises(ValueError, match="no shipped residual agent for plant 'jee-triaxial'"):
+            bound_controller("residual", env)

@@ -1,0 +1,81 @@
+"""scripts/train_agents.py and scripts/residual_benchmark.py end to end on a tiny run."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.residual import ResidualAgent
+from agents.rl import TrainConfig, train
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _script(name):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def tiny_model(tmp_path_factory):
+    gcode = tmp_path_factory.mktemp("g") / "short.nc"
+    gcode.write_text("G21 G90 G17\nG01 X2 F1200\nG01 Y2\n")
+    out = tmp_path_factory.mktemp("runs") / "tiny"
+    cfg = TrainConfig(
+        plant="friction-table", gcode=(str(gcode),), algo="sac", timesteps=200, seed=0,
+        learning_starts=50, buffer_size=1000, batch_size=32, eval_freq=200, net_arch=(8, 8),
+    )  # fmt: skip
+    train(cfg, out, progress=False, log=lambda s: None)
+    return out
+
+
+def test_install_copies_the_model_files_and_the_copy_is_a_working_agent(
+    tiny_model, tmp_path, monkeypatch
+):
+    mod = _script("train_agents")
+    monkeypatch.setattr(mod, "MODELS", tmp_path / "models")
+    dest = mod.install(tiny_model, "friction-table")
+    assert sorted(p.name for p in dest.iterdir()) == sorted(mod.SHIPPED_FILES)
+    assert not (dest / "checkpoints").exists()
+    # the shipped copy gives the same actions as the run folder
+    import gymnasium as gym
+
+    from contour_env import ENV_ID
+    from contour_env.evaluation import evaluate
+
+    path = "G21 G90 G17\nG01 X2 F1200\nG01 Y2\n"
+    a = evaluate(gym.make(ENV_ID, plant="friction-table", path=path), ResidualAgent(dest))
+    b = evaluate(gym.make(ENV_ID, plant="friction-table", path=path), ResidualAgent(tiny_model))
+    assert a == b
+    # installing again replaces the folder whole
+    assert mod.install(tiny_model, "friction-table") == dest
+
+
+def test_shipped_configurations_are_valid_and_unknown_names_are_refused():
+    mod = _script("train_agents")
+    for name, kw in mod.SHIPPED.items():
+        cfg = TrainConfig(seed=0, **kw)
+        assert cfg.plant_name == name
+    with pytest.raises(SystemExit, match="unknown"):
+        mod.main(["--only", "five-axis"])
+
+
+def test_residual_benchmark_scores_agent_and_base_on_polygon_and_spline(tiny_model, tmp_path):
+    mod = _script("residual_benchmark")
+    js = tmp_path / "bench.json"
+    assert mod.main(["--models", str(tiny_model), "--json", str(js)]) == 0
+    rows = json.loads(js.read_text())["rows"]
+    assert [r["target"] for r in rows] == ["polygon", "spline"]
+    for r in rows:
+        assert r["plant"] == "friction-table" and r["base"] == "pd"
+        assert r["rms_ratio"] == pytest.approx(
+            r["agent_rms_contour_error_um"] / r["base_rms_contour_error_um"]
+        )
+        assert all(e is None or np.isfinite(e) for e in r["effort_ratio"])
+    # hsm2 agents are also scored on all three Lee circles
+    targets = [t for t, _ in mod.test_targets({"plant": "hsm2", "cases": ["hsm2-circle-I"]})]
+    assert targets == ["hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "polygon", "spline"]
