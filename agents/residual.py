@@ -56,6 +56,8 @@ from .base import Controller, _core_of
 from .registry import controller_names, make_controller
 
 DEFAULT_SCALE = 0.05
+# what of the env observation the agent sees (see observation_fields)
+OBSERVATIONS = ("full", "errors")
 DEFAULT_AGENT_PERIOD_S = 1e-3
 MODEL_FORMAT = "contour_env.residual_agent/1"
 
@@ -115,10 +117,30 @@ def make_base(base, env, base_kwargs=None) -> Controller:
     return ctrl.bind(env)
 
 
-def _obs_space(core, observe_base_command: bool, n_axes: int) -> spaces.Box:
+def observation_fields(core, observation: str):
+    """Indices of the env observation the agent sees: ``None`` for ``"full"`` (every field),
+    the task-frame position and velocity errors (the first 2 n fields, see ContouringEnv) for
+    ``"errors"``."""
+    if observation not in OBSERVATIONS:
+        raise ValueError(
+            f"observation: must be one of {', '.join(OBSERVATIONS)}, got {observation!r}"
+        )
+    if observation == "full":
+        return None
+    return np.arange(2 * core.dim)
+
+
+def _obs_space(core, observe_base_command: bool, n_axes: int, observation="full") -> spaces.Box:
     clip = core.config.obs_clip
-    dim = core.obs_dim + (n_axes if observe_base_command else 0)
+    fields = observation_fields(core, observation)
+    dim = (core.obs_dim if fields is None else len(fields)) + (
+        n_axes if observe_base_command else 0
+    )
     return spaces.Box(-clip, clip, (dim,), dtype=np.float32)
+
+
+def _select(obs: np.ndarray, fields) -> np.ndarray:
+    return obs if fields is None else obs[..., fields]
 
 
 def _agent_action(action, shape, what="action") -> np.ndarray:
@@ -143,6 +165,9 @@ class ResidualWrapper(gym.Wrapper):
     scale : float — residual authority, fraction of the force limit per axis (default 0.05).
     observe_base_command : bool — append the base action (fraction of the force limit) to the
         observation (default False).
+    observation : ``"full"`` (default: every field of the env observation) or ``"errors"``
+        (only the task-frame position and velocity errors: a policy of the errors alone, which
+        cannot tell one path from another).
     action_repeat : int or None — servo periods per agent action (None: one per ms).
     residual_penalty : float — reward weight on ‖a_agent‖² / n (default 0; the trainer uses 1).
     base_kwargs : dict — arguments of the base controller when ``base`` is a name.
@@ -161,6 +186,7 @@ class ResidualWrapper(gym.Wrapper):
         action_repeat=None,
         residual_penalty=0.0,
         base_kwargs=None,
+        observation="full",
     ):
         holder, core = _core_of(env)
         if hasattr(holder, "num_envs"):
@@ -169,16 +195,19 @@ class ResidualWrapper(gym.Wrapper):
         self.core = core
         self.scale = _check_scale(scale)
         self.observe_base_command = bool(observe_base_command)
+        self.observation = observation
+        self._fields = observation_fields(core, observation)
         self.action_repeat = _check_repeat(action_repeat, core.T)
         self.residual_penalty = _check_penalty(residual_penalty)
         self.base = make_base(base, env, base_kwargs)
         n = core.dim
         self.n_axes = n
         self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
-        self.observation_space = _obs_space(core, self.observe_base_command, n)
+        self.observation_space = _obs_space(core, self.observe_base_command, n, observation)
         self._base_next = np.zeros((1, n), dtype=np.float32)
 
     def _observe(self, obs):
+        obs = _select(obs, self._fields)
         if not self.observe_base_command:
             return obs
         return np.concatenate([obs, self._base_next[0]]).astype(np.float32)
@@ -240,6 +269,7 @@ class ResidualVectorWrapper(VectorWrapper):
         action_repeat=None,
         residual_penalty=0.0,
         base_kwargs=None,
+        observation="full",
         autoreset_mode="next_step",
     ):
         holder, core = _core_of(env)
@@ -256,13 +286,15 @@ class ResidualVectorWrapper(VectorWrapper):
         )
         self.scale = _check_scale(scale)
         self.observe_base_command = bool(observe_base_command)
+        self.observation = observation
+        self._fields = observation_fields(core, observation)
         self.action_repeat = _check_repeat(action_repeat, core.T)
         self.residual_penalty = _check_penalty(residual_penalty)
         self.base = make_base(base, env, base_kwargs)
         n = core.dim
         self.n_axes = n
         self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
-        self.single_observation_space = _obs_space(core, self.observe_base_command, n)
+        self.single_observation_space = _obs_space(core, self.observe_base_command, n, observation)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
@@ -270,6 +302,7 @@ class ResidualVectorWrapper(VectorWrapper):
         self._base_next = np.zeros((self.num_envs, n), dtype=np.float32)
 
     def _observe(self, obs):
+        obs = _select(obs, self._fields)
         if not self.observe_base_command:
             return obs
         return np.concatenate([obs, self._base_next], axis=1).astype(np.float32)
@@ -332,8 +365,9 @@ class ResidualVectorWrapper(VectorWrapper):
         if self.same_step and done.any():
             # the final observation's base part is the last applied base action (the base
             # controller is not asked again at a terminal state)
+            seen = _select(obs, self._fields)
             final = (
-                obs if not self.observe_base_command else np.concatenate([obs, base_used], axis=1)
+                seen if not self.observe_base_command else np.concatenate([seen, base_used], axis=1)
             )
             self._reset_envs(done)
             obs = core.obs.copy()
@@ -419,12 +453,19 @@ class ResidualAgent(Controller):
         self.deterministic = bool(deterministic)
         self.scale = float(meta["scale"])
         self.observe_base_command = bool(meta["observe_base_command"])
+        self.observation = meta.get("observation", "full")
+        if self.observation not in OBSERVATIONS:
+            raise ValueError(
+                f"agent.json: observation {self.observation!r}, expected one of "
+                f"{', '.join(OBSERVATIONS)}"
+            )
         self.action_repeat = int(meta["action_repeat"])
         self.base_name = meta["base"]
         self.base_kwargs = dict(meta.get("base_kwargs") or {})
         self.base: Controller | None = None
         self._res = None
         self._count = None
+        self._fields = None
 
     def bind(self, env) -> ResidualAgent:
         _, core = _core_of(env)
@@ -440,7 +481,9 @@ class ResidualAgent(Controller):
                 f"env: the agent in {self.model_dir} was trained for plant {want_plant!r}; the "
                 f"env's plant is {plant.name!r} (train an agent for it with `contour-env train`)"
             )
-        obs_dim = core.obs_dim + (want_axes if self.observe_base_command else 0)
+        self._fields = observation_fields(core, self.observation)
+        seen = core.obs_dim if self._fields is None else len(self._fields)
+        obs_dim = seen + (want_axes if self.observe_base_command else 0)
         if obs_dim != int(self.meta["obs_dim"]):
             raise ValueError(
                 f"env: observation size {obs_dim} differs from the agent's {self.meta['obs_dim']}"
@@ -463,7 +506,7 @@ class ResidualAgent(Controller):
 
     def residual(self, obs: np.ndarray, base_action: np.ndarray) -> np.ndarray:
         """The agent's action in [-1, 1] (B, A) for raw env observations (B, obs_dim)."""
-        x = np.asarray(obs, dtype=np.float32)
+        x = _select(np.asarray(obs, dtype=np.float32), self._fields)
         if self.observe_base_command:
             x = np.concatenate([x, np.asarray(base_action, dtype=np.float32)], axis=1)
         x = self.norm(x)

@@ -58,6 +58,7 @@ def config_from_args(args):
         n_envs=args.n_envs,
         scale=args.scale,
         observe_base_command=args.observe_base_command,
+        observation=args.observation,
         action_repeat=args.action_repeat,
         residual_penalty=args.residual_penalty,
         randomize_plant=args.randomize_plant,
@@ -175,6 +176,13 @@ def add_rl_commands(sub) -> None:
         "--observe-base-command",
         action="store_true",
         help="append the base command to the agent's observation",
+    )
+    p.add_argument(
+        "--observation",
+        choices=("full", "errors"),
+        default="full",
+        help="what the agent sees: the env's whole observation (full, default) or only the "
+        "task-frame position and velocity errors (errors)",
     )
     p.add_argument(
         "--action-repeat",

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from agents.registry import controller_names
-from agents.residual import DEFAULT_SCALE
+from agents.residual import DEFAULT_SCALE, OBSERVATIONS
 
 ALGOS = ("sac", "td3", "ppo")
 PATH_VARIETY = ("circles", "splines")
@@ -60,6 +60,7 @@ class TrainConfig:
     # residual law (agents.residual)
     scale: float = DEFAULT_SCALE
     observe_base_command: bool = False
+    observation: str = "full"
     action_repeat: int | None = None
     residual_penalty: float = 1.0
     # env reward weights (ContouringEnv)
@@ -98,6 +99,10 @@ class TrainConfig:
             "circle_radius_m",
         ):
             fix(self, key, tuple(getattr(self, key)))
+        if self.observation not in OBSERVATIONS:
+            raise ValueError(
+                f"observation: must be one of {', '.join(OBSERVATIONS)}, got {self.observation!r}"
+            )
         if self.algo not in ALGOS:
             raise ValueError(f"algo: must be one of {', '.join(ALGOS)}, got {self.algo!r}")
         if self.base not in controller_names():
@@ -198,6 +203,7 @@ class TrainConfig:
             "base": self.base,
             "scale": self.scale,
             "observe_base_command": self.observe_base_command,
+            "observation": self.observation,
             "action_repeat": self.action_repeat,
             "residual_penalty": self.residual_penalty,
         }

@@ -129,6 +129,7 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
         "base_kwargs": {},
         "scale": cfg.scale,
         "observe_base_command": cfg.observe_base_command,
+        "observation": cfg.observation,
         "action_repeat": int(g.action_repeat),
         "servo_period_s": float(g.core.T),
         "cases": list(cfg.cases),

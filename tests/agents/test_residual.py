@@ -164,6 +164,7 @@ def test_default_action_repeat_is_one_agent_action_per_ms():
         ({"action_repeat": 0}, "action_repeat"),
         ({"residual_penalty": -1}, "residual_penalty"),
         ({"base": "nope"}, r"base: unknown controller 'nope'.*pd"),
+        ({"observation": "all"}, r"observation: must be one of full, errors"),
     ],
 )
 def test_bad_arguments_are_clear_errors(kwargs, match):
@@ -189,3 +190,44 @@ def test_single_and_vector_wrappers_refuse_the_other_kind():
         ResidualWrapper(venv)
     with pytest.raises(ValueError, match="ResidualWrapper"):
         ResidualVectorWrapper(gym.make(ENV_ID, case="sharp-corner"))
+
+
+@pytest.mark.parametrize("observe_base_command", [False, True])
+def test_errors_observation_is_the_task_frame_errors_in_single_and_vector_wrappers(
+    observe_base_command,
+):
+    kw = dict(plant="friction-table", path=SHORT)
+    wk = dict(observation="errors", observe_base_command=observe_base_command)
+    full = ResidualWrapper(gym.make(ENV_ID, **kw), "pd", observe_base_command=observe_base_command)
+    single = ResidualWrapper(gym.make(ENV_ID, **kw), "pd", **wk)
+    vec = ResidualVectorWrapper(
+        gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", **kw),
+        "pd",
+        autoreset_mode="same_step",
+        **wk,
+    )
+    n = 2
+    extra = n if observe_base_command else 0
+    assert single.observation_space.shape == (2 * n + extra,)
+    assert vec.single_observation_space.shape == (2 * n + extra,)
+    of, _ = full.reset(seed=3)
+    o1, _ = single.reset(seed=3)
+    o2, _ = vec.reset(seed=3)
+    rng = np.random.default_rng(2)
+    while True:
+        # the first 2 n fields of the env observation: task-frame position and velocity errors
+        np.testing.assert_array_equal(o1[: 2 * n], of[: 2 * n])
+        if observe_base_command:
+            np.testing.assert_array_equal(o1[2 * n :], of[-n:])
+        np.testing.assert_array_equal(o1, o2[0])
+        assert single.observation_space.contains(o1)
+        a = rng.uniform(-1, 1, size=(2, n)).astype(np.float32)
+        of, _, _, _, _ = full.step(a[0])
+        o1, _, t1, tr1, _ = single.step(a[0])
+        o2, _, t2, tr2, info = vec.step(a)
+        if t1 or tr1:
+            # sb3's terminal observation has the agent's layout too (its base part is the last
+            # applied base action: the base is not asked again at a terminal state)
+            assert info["final_obs"].shape == (2, 2 * n + extra)
+            np.testing.assert_array_equal(info["final_obs"][0, : 2 * n], o1[: 2 * n])
+            break

@@ -270,3 +270,28 @@ def test_compare_residual_errors(sac_run, gcode, capsys):
     if "jee-triaxial" not in shipped:
         with pytest.raises(ValueError, match="no shipped residual agent for plant 'jee-triaxial'"):
             bound_controller("residual", env)
+
+
+def test_errors_observation_agent_is_scored_as_it_was_trained(tmp_path, gcode):
+    cfg = TrainConfig(gcode=(gcode,), algo="sac", observation="errors", **TINY)
+    out = tmp_path / "errors"
+    train(cfg, out, progress=False, log=lambda s: None)
+    agent = ResidualAgent(out)
+    assert agent.meta["observation"] == "errors" and agent.meta["obs_dim"] == 4
+    m_agent = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), agent)
+    w = ResidualWrapper(
+        gym.make(ENV_ID, plant="friction-table", path=SHORT),
+        agent.base_name,
+        scale=agent.scale,
+        action_repeat=agent.action_repeat,
+        observation="errors",
+    )
+
+    class ModelPolicy:
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            a, _ = agent.model.predict(agent.norm(obs[None]), deterministic=True)
+            return a[0], state
+
+    assert evaluate(w, ModelPolicy()) == m_agent
+    with pytest.raises(ValueError, match="observation: must be one of full, errors"):
+        TrainConfig(gcode=(gcode,), observation="everything", **TINY)
