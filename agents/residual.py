@@ -17,10 +17,11 @@ it explicitly to give the agent more authority). With a zero agent action the wr
 ``a_base`` bit for bit, so they reproduce the base controller exactly.
 
 ``observe_base_command`` appends ``a_base`` (the base command about to be applied, as a
-fraction of the force limit) to the observation. Default False: Johannink et al. and
-later residual-RL work report that the residual learns at least as well from the state alone,
-and it keeps the agent independent of the base's gains; measure it with
-``contour-env train ... --observe-base-command`` (not measured here yet).
+fraction of the force limit) to the observation. Default False: the residual learned better
+from the state alone in five of six checkpoints we measured (SAC, seed 0, evaluation RMS ε at
+10k / 20k / 30k steps: ``lm-circle3d`` on CCC 2.29 / 1.86 / 1.81 µm without it against
+2.93 / 2.03 / 2.14 µm with it; ``sharp-corner`` on PD 0.59 / 0.44 / 1.96 against
+1.68 / 1.58 / 1.32 µm), and it keeps the agent independent of the base's gains.
 
 ``action_repeat`` k: the agent acts every k servo periods and its residual is held (zero-order
 hold) in between, while the base controller still runs every servo period. The reward of a
