@@ -220,7 +220,7 @@ def _step_one(
     truncated[b] = (kb >= n_steps - 1) and not terminated[b]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True)
 def first_bad_action(action, active):
     """Index of the first active env whose action is not finite, or -1."""
     for b in range(action.shape[0]):
@@ -231,7 +231,7 @@ def first_bad_action(action, active):
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True)
 def env_step(
     cfg,
     icfg,
@@ -308,7 +308,7 @@ def env_step(
     return -1
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=True)
 def env_step_parallel(
     cfg,
     icfg,
@@ -379,7 +379,7 @@ def env_step_parallel(
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True)
 def env_reset(
     b,
     cfg,

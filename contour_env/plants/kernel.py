@@ -150,7 +150,7 @@ def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True)
 def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra):
     # Stuck, breaking away, or near a velocity reversal: kept out of line so the common
     # moving case stays small where it is inlined.
@@ -247,7 +247,7 @@ def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp
     return stuck
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True)
 def plant_step_batch(
     z,
     stuck,
