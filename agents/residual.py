@@ -156,6 +156,22 @@ def _agent_action(action, shape, what="action") -> np.ndarray:
     return np.clip(a, -1.0, 1.0)
 
 
+def _configure(
+    w, env, core, base, scale, observe_base_command, observation, action_repeat,
+    residual_penalty, base_kwargs,
+) -> None:  # fmt: skip
+    """The residual law's settings, checked, on wrapper ``w`` (shared by both wrappers)."""
+    w.core = core
+    w.scale = _check_scale(scale)
+    w.observe_base_command = bool(observe_base_command)
+    w.observation = observation
+    w._fields = observation_fields(core, observation)
+    w.action_repeat = _check_repeat(action_repeat, core.T)
+    w.residual_penalty = _check_penalty(residual_penalty)
+    w.base = make_base(base, env, base_kwargs)
+    w.n_axes = core.dim
+
+
 class ResidualWrapper(gym.Wrapper):
     """Residual action on a single contour_env env (see the module docstring for the law).
 
@@ -193,16 +209,11 @@ class ResidualWrapper(gym.Wrapper):
         if hasattr(holder, "num_envs"):
             raise ValueError("env: a vectorised env; use ResidualVectorWrapper")
         super().__init__(env)
-        self.core = core
-        self.scale = _check_scale(scale)
-        self.observe_base_command = bool(observe_base_command)
-        self.observation = observation
-        self._fields = observation_fields(core, observation)
-        self.action_repeat = _check_repeat(action_repeat, core.T)
-        self.residual_penalty = _check_penalty(residual_penalty)
-        self.base = make_base(base, env, base_kwargs)
+        _configure(
+            self, env, core, base, scale, observe_base_command, observation, action_repeat,
+            residual_penalty, base_kwargs,
+        )  # fmt: skip
         n = core.dim
-        self.n_axes = n
         self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
         self.observation_space = _obs_space(core, self.observe_base_command, n, observation)
         self._base_next = np.zeros((1, n), dtype=np.float32)
@@ -285,13 +296,10 @@ class ResidualVectorWrapper(VectorWrapper):
         self.metadata["autoreset_mode"] = (
             AutoresetMode.SAME_STEP if self.same_step else AutoresetMode.NEXT_STEP
         )
-        self.scale = _check_scale(scale)
-        self.observe_base_command = bool(observe_base_command)
-        self.observation = observation
-        self._fields = observation_fields(core, observation)
-        self.action_repeat = _check_repeat(action_repeat, core.T)
-        self.residual_penalty = _check_penalty(residual_penalty)
-        self.base = make_base(base, env, base_kwargs)
+        _configure(
+            self, env, core, base, scale, observe_base_command, observation, action_repeat,
+            residual_penalty, base_kwargs,
+        )  # fmt: skip
         n = core.dim
         self.n_axes = n
         self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)

@@ -95,6 +95,17 @@ def test_save_load_gives_identical_actions(sac_run):
     np.testing.assert_array_equal(r1.contour_error, r2.contour_error)
 
 
+class _ModelPolicy:
+    """The agent's sb3 model acting on the wrapper's observation, as during training."""
+
+    def __init__(self, agent):
+        self.agent = agent
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        a, _ = self.agent.model.predict(self.agent.norm(obs[None]), deterministic=True)
+        return a[0], state
+
+
 def test_agent_through_evaluate_equals_the_wrapper_it_was_trained_in(sac_run):
     out, _, _ = sac_run
     agent = ResidualAgent(out)
@@ -106,12 +117,7 @@ def test_agent_through_evaluate_equals_the_wrapper_it_was_trained_in(sac_run):
         action_repeat=agent.action_repeat,
     )
 
-    class ModelPolicy:
-        def predict(self, obs, state=None, episode_start=None, deterministic=True):
-            a, _ = agent.model.predict(agent.norm(obs[None]), deterministic=True)
-            return a[0], state
-
-    assert evaluate(w, ModelPolicy()) == m_agent
+    assert evaluate(w, _ModelPolicy(agent)) == m_agent
 
 
 def test_agent_for_another_plant_or_axis_count_is_refused(sac_run):
@@ -287,11 +293,6 @@ def test_errors_observation_agent_is_scored_as_it_was_trained(tmp_path, gcode):
         observation="errors",
     )
 
-    class ModelPolicy:
-        def predict(self, obs, state=None, episode_start=None, deterministic=True):
-            a, _ = agent.model.predict(agent.norm(obs[None]), deterministic=True)
-            return a[0], state
-
-    assert evaluate(w, ModelPolicy()) == m_agent
+    assert evaluate(w, _ModelPolicy(agent)) == m_agent
     with pytest.raises(ValueError, match="observation: must be one of full, errors"):
         TrainConfig(gcode=(gcode,), observation="everything", **TINY)
