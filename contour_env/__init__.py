@@ -5,6 +5,11 @@ Importing the package registers ``contour_env/Contouring-v0`` with Gymnasium.
 
 from gymnasium.envs.registration import register, registry
 
+from .kernel_cache import refresh_stale_caches
+
+# before any kernel is compiled or loaded: drop caches made from other kernel sources
+refresh_stale_caches()
+
 ENV_ID = "contour_env/Contouring-v0"
 
 if ENV_ID not in registry:

@@ -1,0 +1,56 @@
+"""Invalidation of numba's on-disk kernel caches when any kernel source changes.
+
+numba (``cache=True``) keys a cached function on its own source file only, so a kernel that
+inlines functions of another module (``contour_env.env.kernel`` inlines the plant step, the
+noise streams and the path distance) keeps running stale code after those change. On import,
+the package compares a digest of every kernel source with the one recorded beside the caches
+and, when it differs, deletes the package's cache files (``__pycache__/*.nbi``, ``*.nbc``) so
+that numba recompiles once. Nothing is raised when a folder is read-only (numba then caches in
+its user-wide folder, which this does not manage).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent
+# every module with cached numba functions, relative to the package
+KERNEL_SOURCES = ("contour_error.py", "noise.py", "plants/kernel.py", "env/kernel.py")
+STAMP = PACKAGE / "__pycache__" / "kernel_sources.sha256"
+
+
+def sources_digest(root: Path = PACKAGE) -> str:
+    h = hashlib.sha256()
+    for rel in KERNEL_SOURCES:
+        h.update(rel.encode())
+        h.update((root / rel).read_bytes())
+    return h.hexdigest()
+
+
+def refresh_stale_caches(root: Path = PACKAGE) -> list[Path]:
+    """Delete the package's numba cache files if the kernel sources changed since they were
+    written; return the files deleted (empty when the caches are current)."""
+    stamp = root / "__pycache__" / STAMP.name
+    digest = sources_digest(root)
+    try:
+        if stamp.read_text().strip() == digest:
+            return []
+    except OSError:
+        pass
+    removed = []
+    for folder in {(root / rel).parent / "__pycache__" for rel in KERNEL_SOURCES}:
+        for f in list(folder.glob("*.nbi")) + list(folder.glob("*.nbc")):
+            try:
+                f.unlink()
+                removed.append(f)
+            except OSError:
+                pass
+    try:
+        stamp.parent.mkdir(exist_ok=True)
+        tmp = stamp.with_suffix(".tmp")
+        tmp.write_text(digest + "\n")
+        tmp.replace(stamp)
+    except OSError:
+        pass
+    return removed

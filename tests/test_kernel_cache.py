@@ -1,0 +1,43 @@
+"""Stale numba caches are dropped when any kernel source changes."""
+
+import shutil
+
+from contour_env import kernel_cache
+
+
+def _tree(tmp_path):
+    root = tmp_path / "pkg"
+    for rel in kernel_cache.KERNEL_SOURCES:
+        src = kernel_cache.PACKAGE / rel
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(src, root / rel)
+    return root
+
+
+def _caches(root):
+    files = []
+    for rel in ("env/kernel.py", "plants/kernel.py"):
+        d = (root / rel).parent / "__pycache__"
+        d.mkdir(exist_ok=True)
+        for name in ("kernel.env_step-1.py311.nbi", "kernel.env_step-1.py311.1.nbc"):
+            (d / name).write_text("x")
+            files.append(d / name)
+    keep = root / "env" / "__pycache__" / "kernel.cpython-311.pyc"
+    keep.write_text("bytecode")
+    return files, keep
+
+
+def test_caches_are_kept_while_the_sources_are_unchanged_and_dropped_after_an_edit(tmp_path):
+    root = _tree(tmp_path)
+    files, keep = _caches(root)
+    # first import: no stamp yet, so the caches cannot be trusted
+    assert sorted(kernel_cache.refresh_stale_caches(root)) == sorted(files)
+    files, keep = _caches(root)
+    assert kernel_cache.refresh_stale_caches(root) == []
+    assert all(f.exists() for f in files)
+    # an edit of an inlined module (not of the caller) invalidates every cache
+    with open(root / "plants" / "kernel.py", "a") as fh:
+        fh.write("\n# edited\n")
+    assert sorted(kernel_cache.refresh_stale_caches(root)) == sorted(files)
+    assert not any(f.exists() for f in files) and keep.exists()
+    assert kernel_cache.refresh_stale_caches(root) == []
