@@ -16,9 +16,8 @@ Defaults (documented choices, not tuned by a hyperparameter search — see the R
   authority costs as much as 10 µm of contour error. Measured on ``sharp-corner`` (SAC on PD,
   seed 0, one run each): with 0.01 and 20 000 steps the agent lowered RMS ε from 11.7 to
   3.6 µm but spent 2.5–4.7× PD's RMS effort; with 1.0 and 12 000 steps it reached 1.8 µm at
-  RMS effort [22.9, 18.0] N against PD's [27.7, 15.9] N; the shipped 100 000-step agent
-  (``scripts/train_agents.py``) reaches 0.44 µm at 0.77× / 1.16× PD's effort (README,
-  "Shipped agents and what they do").
+  RMS effort [22.9, 18.0] N against PD's [27.7, 15.9] N; a 100 000-step run
+  reached 0.44 µm at 0.77× / 1.16× PD's effort (README, "Shipped agents and what they do").
 - ``scale`` 0.05 of the force limit and one agent action per ms: see :mod:`agents.residual`.
 - TD3 exploration noise σ = 0.1 (sb3's suggestion); SAC's default entropy tuning.
 """
