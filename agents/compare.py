@@ -32,10 +32,11 @@ def bound_controller(name: str, env, model=None):
     number of axes)."""
     if name != RESIDUAL:
         return make_controller(name).bind(env)
+    from .base import _core_of
     from .residual import ResidualAgent
     from .rl.models import shipped_model_for
 
-    core = env.core if hasattr(env, "core") else env.unwrapped.core
+    _, core = _core_of(env)
     model_dir = model if model is not None else shipped_model_for(core.setup.plant.name)
     return ResidualAgent(model_dir).bind(env)
 

@@ -114,7 +114,8 @@ def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2
     v0 = z[1]
     if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
         # whole period, first-order-hold predictor–corrector
-        w0 = -(friction_force(v0, fc, fs, vs) + (external_force(z[0], t0, nl, p, i) - w_extra))
+        f0 = friction_force(v0, fc, fs, vs)
+        w0 = -(f0 + (external_force(z[0], t0, nl, p, i) - w_extra))
         _advance(z, tmp, mat_T, p, i, u, w0, w0, ns)
         v1 = tmp[1]
         w1 = -(
@@ -131,20 +132,19 @@ def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2
         # crosses the Stribeck region in large steps (friction then varies too fast for the
         # first-order hold: its value at the mid-period velocity differs from the mean of the
         # end values by more than FOH_FRICTION_TOL of the static friction)
-        if fs == 0.0:
-            for r in range(ns):
-                z[r] = tmp[r]
-            return 0.0
-        if (v0 > 0.0 and v1 > 0.0 and v2 > 0.0) or (v0 < 0.0 and v1 < 0.0 and v2 < 0.0):
+        accept = fs == 0.0
+        if not accept and (
+            (v0 > 0.0 and v1 > 0.0 and v2 > 0.0) or (v0 < 0.0 and v1 < 0.0 and v2 < 0.0)
+        ):
             accept = abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs
             for _ in range(0 if accept else 1):
                 f_mid = friction_force(0.5 * (v0 + v2), fc, fs, vs)
-                f_ends = 0.5 * (friction_force(v0, fc, fs, vs) + friction_force(v2, fc, fs, vs))
+                f_ends = 0.5 * (f0 + friction_force(v2, fc, fs, vs))
                 accept = abs(f_mid - f_ends) <= FOH_FRICTION_TOL * fs
-            if accept:
-                for r in range(ns):
-                    z[r] = tmp[r]
-                return 0.0
+        if accept:
+            for r in range(ns):
+                z[r] = tmp[r]
+            return 0.0
     return _axis_step_slow(
         z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra
     )

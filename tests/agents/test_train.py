@@ -95,6 +95,18 @@ def test_save_load_gives_identical_actions(sac_run):
     np.testing.assert_array_equal(r1.contour_error, r2.contour_error)
 
 
+def _wrapper_of(agent):
+    """The training wrapper of ``agent`` (its base, scale, action repeat and observation),
+    built independently of ResidualAgent from the agent's metadata."""
+    return ResidualWrapper(
+        gym.make(ENV_ID, plant="friction-table", path=SHORT),
+        agent.meta["base"],
+        scale=agent.meta["scale"],
+        action_repeat=agent.meta["action_repeat"],
+        observation=agent.meta.get("observation", "full"),
+    )
+
+
 class _ModelPolicy:
     """The agent's sb3 model acting on the wrapper's observation, as during training."""
 
@@ -110,12 +122,7 @@ def test_agent_through_evaluate_equals_the_wrapper_it_was_trained_in(sac_run):
     out, _, _ = sac_run
     agent = ResidualAgent(out)
     m_agent = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), agent)
-    w = ResidualWrapper(
-        gym.make(ENV_ID, plant="friction-table", path=SHORT),
-        agent.base_name,
-        scale=agent.scale,
-        action_repeat=agent.action_repeat,
-    )
+    w = _wrapper_of(agent)
 
     assert evaluate(w, _ModelPolicy(agent)) == m_agent
 
@@ -285,13 +292,8 @@ def test_errors_observation_agent_is_scored_as_it_was_trained(tmp_path, gcode):
     agent = ResidualAgent(out)
     assert agent.meta["observation"] == "errors" and agent.meta["obs_dim"] == 4
     m_agent = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), agent)
-    w = ResidualWrapper(
-        gym.make(ENV_ID, plant="friction-table", path=SHORT),
-        agent.base_name,
-        scale=agent.scale,
-        action_repeat=agent.action_repeat,
-        observation="errors",
-    )
+    w = _wrapper_of(agent)
+    assert w.observation == "errors"
 
     assert evaluate(w, _ModelPolicy(agent)) == m_agent
     with pytest.raises(ValueError, match="observation: must be one of full, errors"):
