@@ -331,8 +331,8 @@ class ResidualVectorWrapper(VectorWrapper):
     def _reset_envs(self, mask: np.ndarray) -> None:
         """Reset the envs in ``mask`` (the base controller's state is reset separately, right
         before its next action, so that every env gets exactly one base action per period)."""
-        for b in np.flatnonzero(mask):
-            self.core.reset_env(int(b), int(self._rng.integers(0, 2**62)))
+        envs = np.flatnonzero(mask)
+        self.core.reset_envs(envs, self._rng.integers(0, 2**62, size=len(envs)).tolist())
 
     def step(self, actions):
         core = self.core

@@ -220,7 +220,7 @@ def arc_distance(data, px, py, pz):
     pitch = data[15]
     if pitch != 0.0:
         return _helix_distance(th0, sweep, r, pitch, a, b, h)
-    rho = math.hypot(a, b)
+    rho = math.sqrt(a * a + b * b)  # lengths in m: no overflow, cheaper than hypot
     inside = abs(sweep) >= TWO_PI or rho == 0.0  # full circle, or on the axis (all equidistant)
     if not inside:
         # angle of the projection measured from θ0 in the direction of travel, in [0, 2π)

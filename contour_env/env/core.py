@@ -121,7 +121,7 @@ class EnvCore:
             [max(1, round(t / self.T)) for t in config.preview_times_s], dtype=np.int64
         )
         self.preview = preview
-        cfg = np.zeros(K.CFG_SIZE)
+        cfg = np.zeros(K.CFG_SIZE + len(preview))
         cfg[K.C_T] = self.T
         cfg[K.C_ERR_SCALE] = config.error_obs_scale_m
         cfg[K.C_VERR_SCALE] = config.velocity_error_obs_scale_m_s
@@ -137,7 +137,22 @@ class EnvCore:
         cfg[K.C_DIST_AMP] = config.disturbance_force_N
         cfg[K.C_OBS_CLIP] = config.obs_clip
         cfg[K.C_DIST_PHASE_RANDOM] = 1.0 if config.disturbance_phase == "random" else 0.0
+        for slot, value in (
+            (K.C_INV_T, self.T),
+            (K.C_INV_ERR, config.error_obs_scale_m),
+            (K.C_INV_VERR, config.velocity_error_obs_scale_m_s),
+            (K.C_INV_FEED, setup.feedrate_m_s),
+            (K.C_INV_ACC, setup.max_accel_m_s2),
+            (K.C_INV_EPS, config.contour_error_scale_m),
+        ):
+            cfg[slot] = 1.0 / value
+        cfg[K.CFG_SIZE :] = 1.0 / (setup.feedrate_m_s * preview * self.T)
         self.cfg = cfg
+        # the reference-only part of the observation, per reference index (float32)
+        self.obs_tab = np.zeros((self.n_steps, 3 + len(preview) * self.dim), dtype=np.float32)
+        K.observation_table(
+            cfg, preview, self.ref_pav, self.frame, self.scal, self.n_steps, self.dim, self.obs_tab
+        )
         self.icfg = np.array(
             [self.n_steps, plant.params.friction_substeps, int(plant.params.computation_delay)],
             dtype=np.int64,
@@ -160,18 +175,24 @@ class EnvCore:
         # stuck at rest where there is static friction (identical structure across the batch)
         self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
         self.action = np.zeros((B, A))
-        self.scratch = np.zeros((B, 3, ns))
+        self.scratch = np.zeros((2 * B, ns))
         # threads pay off only for large batches; results are identical either way
         self._step_kernel = K.env_step_parallel if B >= PARALLEL_MIN_ENVS else K.env_step
 
     # --- episode control -------------------------------------------------------------------
     def reset_env(self, b: int, noise_seed: int) -> None:
-        self.seed[b] = np.uint64(noise_seed % (1 << 64))
+        """Reset env b with the episode seed ``noise_seed`` (any integer, taken mod 2⁶⁴)."""
+        self.reset_envs(np.array([b], dtype=np.int64), [noise_seed])
+
+    def reset_envs(self, envs, noise_seeds) -> None:
+        """Reset the envs ``envs`` (indices) with one episode seed each, in one compiled call."""
+        envs = np.ascontiguousarray(envs, dtype=np.int64)
+        self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
         p = self.packed
         K.env_reset(
-            b,
+            envs,
             self.cfg,
-            self.preview,
+            self.obs_tab,
             self.z,
             self.ax,
             self.k,
@@ -181,7 +202,6 @@ class EnvCore:
             self.seed,
             self.ref_pav,
             self.frame,
-            self.scal,
             self.seg_type,
             self.seg_data,
             self.seg_bounds,
@@ -189,11 +209,10 @@ class EnvCore:
             p.pidx,
             self.stuck0,
             self.obs,
-            self.n_steps,
+            self.reward,
+            self.terminated,
+            self.truncated,
         )
-        self.reward[b] = 0.0
-        self.terminated[b] = False
-        self.truncated[b] = False
 
     def step(self, action: np.ndarray, active: np.ndarray) -> None:
         """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf."""
@@ -201,7 +220,7 @@ class EnvCore:
         bad = self._step_kernel(
             self.cfg,
             self.icfg,
-            self.preview,
+            self.obs_tab,
             self.z,
             self.ax,
             self.k,
@@ -211,7 +230,6 @@ class EnvCore:
             self.seed,
             self.ref_pav,
             self.frame,
-            self.scal,
             self.seg_type,
             self.seg_data,
             self.seg_bounds,

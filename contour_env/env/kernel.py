@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from ..contour_error import path_distance
 from ..noise import standard_normal, uniform01
-from ..plants.kernel import NL_FD, NL_FMAX, NL_RES, axis_step
+from ..plants.kernel import NL_FD, NL_FMAX, NL_INV_RES, NL_RES, axis_step
 
 # float configuration (cfg)
 (
@@ -32,8 +33,16 @@ from ..plants.kernel import NL_FD, NL_FMAX, NL_RES, axis_step
     C_DIST_AMP,
     C_OBS_CLIP,
     C_DIST_PHASE_RANDOM,
-) = range(15)
-CFG_SIZE = 15
+    C_INV_T,
+    C_INV_ERR,
+    C_INV_VERR,
+    C_INV_FEED,
+    C_INV_ACC,
+    C_INV_EPS,
+) = range(21)
+# cfg[CFG_SIZE + j]: 1 / (feed scale · preview time j), the preview's scale; the reciprocals
+# are computed once by EnvCore so that the per-step code multiplies instead of dividing
+CFG_SIZE = 21
 # integer configuration (icfg)
 I_NSTEPS, I_NSUB, I_DELAY = range(3)
 ICFG_SIZE = 3
@@ -48,14 +57,39 @@ STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE = 0, 1, 2
 _STREAM_MEAS, _STREAM_DIST, _STREAM_PHASE = 0, 1, 2
 
 
+@njit(cache=True)
+def observation_table(cfg, preview, ref_pav, frame, scal, n_steps, dim, out):
+    """Fill out[kk] (float32, (n_steps, 3 + len(preview) · dim)) with the part of the
+    observation that depends on the reference index kk only: scaled feedrate, feed
+    acceleration and curvature, then the path preview. Computed once per env setup, so the
+    step copies it instead of recomputing it for every env."""
+    clip = cfg[C_OBS_CLIP]
+    for kk in range(n_steps):
+        out[kk, 0] = min(max(scal[kk, 0] * cfg[C_INV_FEED], -clip), clip)
+        out[kk, 1] = min(max(scal[kk, 1] * cfg[C_INV_ACC], -clip), clip)
+        out[kk, 2] = min(max(scal[kk, 2] * cfg[C_CURV_SCALE], -clip), clip)
+        o = 3
+        # preview: upcoming reference points in the current task frame, scaled by the distance
+        # the nominal feed covers in that time (≈ (1, 0, 0) on a straight at full feed)
+        for j in range(preview.shape[0]):
+            kj = min(kk + preview[j], n_steps - 1)
+            inv_scale = cfg[CFG_SIZE + j]
+            for r in range(dim):
+                acc = 0.0
+                for c in range(dim):
+                    acc += frame[kk, c, r] * (ref_pav[kj, 0, c] - ref_pav[kk, 0, c])
+                out[kk, o] = min(max(acc * inv_scale, -clip), clip)
+                o += 1
+
+
 @njit(cache=True, inline="always")
-def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
-    """Fill obs[b] for reference index kk from the measured state (layout: see ContouringEnv)."""
+def observe(b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
+    """Fill obs[b] for reference index kk from the measured state (layout: see ContouringEnv);
+    the reference-only fields come from ``obs_tab`` (:func:`observation_table`)."""
     dim = ax.shape[2]
     clip = cfg[C_OBS_CLIP]
-    # reciprocals once per call: a multiply per field instead of a division
-    inv_err = 1.0 / cfg[C_ERR_SCALE]
-    inv_verr = 1.0 / cfg[C_VERR_SCALE]
+    inv_err = cfg[C_INV_ERR]
+    inv_verr = cfg[C_INV_VERR]
     o = 0
     # task-frame position error Fᵀ(x_d − x_meas), scaled
     for r in range(dim):
@@ -71,21 +105,9 @@ def observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs):
             acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[AX_VEL, b, c])
         obs[b, o] = min(max(acc * inv_verr, -clip), clip)
         o += 1
-    obs[b, o] = min(max(scal[kk, 0] / cfg[C_FEED_SCALE], -clip), clip)
-    obs[b, o + 1] = min(max(scal[kk, 1] / cfg[C_ACC_SCALE], -clip), clip)
-    obs[b, o + 2] = min(max(scal[kk, 2] * cfg[C_CURV_SCALE], -clip), clip)
-    o += 3
-    # preview: upcoming reference points in the current task frame, scaled by the distance the
-    # nominal feed covers in that time (≈ (1, 0, 0) on a straight at full feed)
-    for j in range(preview.shape[0]):
-        kj = min(kk + preview[j], n_steps - 1)
-        inv_scale = 1.0 / (cfg[C_FEED_SCALE] * preview[j] * cfg[C_T])
-        for r in range(dim):
-            acc = 0.0
-            for c in range(dim):
-                acc += frame[kk, c, r] * (ref_pav[kj, 0, c] - ref_pav[kk, 0, c])
-            obs[b, o] = min(max(acc * inv_scale, -clip), clip)
-            o += 1
+    for j in range(obs_tab.shape[1]):
+        obs[b, o + j] = obs_tab[kk, j]
+    o += obs_tab.shape[1]
     for r in range(dim):
         obs[b, o] = ax[AX_PREV, b, r]
         o += 1
@@ -96,8 +118,9 @@ def _step_one(
     b,
     cfg,
     icfg,
-    preview,
+    obs_tab,
     z,
+    z2,
     ax,
     k,
     eps,
@@ -106,7 +129,6 @@ def _step_one(
     seed,
     ref_pav,
     frame,
-    scal,
     seg_type,
     seg_data,
     seg_bounds,
@@ -124,16 +146,13 @@ def _step_one(
 ):
     # one env, one servo period (the body shared by the serial and the parallel driver)
     n_axes = z.shape[1]
-    ns = z.shape[2]
     T = cfg[C_T]
+    inv_T = cfg[C_INV_T]
     n_steps = icfg[I_NSTEPS]
     n_sub = icfg[I_NSUB]
     delay = icfg[I_DELAY] != 0
     noise_std = cfg[C_NOISE_STD]
     dist_amp = cfg[C_DIST_AMP]
-    cur = scratch[b, 0]
-    tmp = scratch[b, 1]
-    tmp2 = scratch[b, 2]
     p = pidx[b]
     kb = k[b]
     t0 = kb * T
@@ -153,10 +172,9 @@ def _step_one(
         w_extra = 0.0
         if dist_amp > 0.0:
             w_extra = dist_amp * (2.0 * uniform01(seed[b], kb, i, _STREAM_DIST) - 1.0)
-        for r in range(ns):
-            cur[r] = z[b, i, r]
         ax[AX_STUCK, b, i] = axis_step(
-            cur,
+            z2,
+            b * n_axes + i,
             ax[AX_STUCK, b, i],
             u,
             t0 + ax[AX_TOFF, b, i],
@@ -168,12 +186,10 @@ def _step_one(
             nl,
             p,
             i,
-            tmp,
-            tmp2,
+            scratch,
+            2 * b,
             w_extra,
         )
-        for r in range(ns):
-            z[b, i, r] = cur[r]
     kb += 1
     k[b] = kb
     kk = min(kb, n_steps - 1)
@@ -187,8 +203,8 @@ def _step_one(
             xm += noise_std * standard_normal(seed[b], kb, i, _STREAM_MEAS)
         res = nl[p, i, NL_RES]
         if res > 0.0:
-            xm = math.floor(xm / res + 0.5) * res
-        ax[AX_VEL, b, i] = (xm - ax[AX_MEAS, b, i]) / T
+            xm = np.floor(xm * nl[p, i, NL_INV_RES] + 0.5) * res
+        ax[AX_VEL, b, i] = (xm - ax[AX_MEAS, b, i]) * inv_T
         ax[AX_MEAS, b, i] = xm
     for r in range(n_axes):
         acc = 0.0
@@ -205,10 +221,10 @@ def _step_one(
         else:
             status[b] = STATUS_OK
         reward[b] = (
-            -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) / cfg[C_EPS_SCALE]
+            -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) * cfg[C_INV_EPS]
             - cfg[C_W_EFFORT] * effort / n_axes
         )
-        observe(b, kk, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs)
+        observe(b, kk, cfg, obs_tab, ax, ref_pav, frame, obs)
     else:
         eps[b] = math.inf
         status[b] = STATUS_NONFINITE
@@ -235,7 +251,7 @@ def first_bad_action(action, active):
 def env_step(
     cfg,
     icfg,
-    preview,
+    obs_tab,
     z,
     ax,
     k,
@@ -245,7 +261,6 @@ def env_step(
     seed,
     ref_pav,
     frame,
-    scal,
     seg_type,
     seg_data,
     seg_bounds,
@@ -267,20 +282,24 @@ def env_step(
     Returns -1, or the index of the first env whose action is not finite (nothing is changed
     then). Shapes: z (B, A, ns); ax (AX_SIZE, B, A); k, status (B,) int64; eps (B,);
     est (B, A); seed (B,) uint64; ref_pav (n, 3, 3) rows [position, velocity, acceleration];
-    frame (n, 3, 3) columns [t n b]; scal (n, 4) [feedrate, feed accel, curvature, torsion];
-    action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (B, 3, ns).
+    frame (n, 3, 3) columns [t n b]; obs_tab (n, n_static) float32 (observation_table);
+    action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (2 B, ns)
+    (rows 2b, 2b + 1: work space of env b).
     """
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad
+    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
+    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
     for b in range(z.shape[0]):
         if active[b]:
             _step_one(
                 b,
                 cfg,
                 icfg,
-                preview,
+                obs_tab,
                 z,
+                z2,
                 ax,
                 k,
                 eps,
@@ -289,7 +308,6 @@ def env_step(
                 seed,
                 ref_pav,
                 frame,
-                scal,
                 seg_type,
                 seg_data,
                 seg_bounds,
@@ -312,7 +330,7 @@ def env_step(
 def env_step_parallel(
     cfg,
     icfg,
-    preview,
+    obs_tab,
     z,
     ax,
     k,
@@ -322,7 +340,6 @@ def env_step_parallel(
     seed,
     ref_pav,
     frame,
-    scal,
     seg_type,
     seg_data,
     seg_bounds,
@@ -344,14 +361,17 @@ def env_step_parallel(
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad
+    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
+    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
     for b in prange(z.shape[0]):
         if active[b]:
             _step_one(
                 b,
                 cfg,
                 icfg,
-                preview,
+                obs_tab,
                 z,
+                z2,
                 ax,
                 k,
                 eps,
@@ -360,7 +380,6 @@ def env_step_parallel(
                 seed,
                 ref_pav,
                 frame,
-                scal,
                 seg_type,
                 seg_data,
                 seg_bounds,
@@ -379,11 +398,11 @@ def env_step_parallel(
     return -1
 
 
-@njit(cache=True)
-def env_reset(
+@njit(cache=True, inline="always")
+def _reset_one(
     b,
     cfg,
-    preview,
+    obs_tab,
     z,
     ax,
     k,
@@ -393,7 +412,6 @@ def env_reset(
     seed,
     ref_pav,
     frame,
-    scal,
     seg_type,
     seg_data,
     seg_bounds,
@@ -401,9 +419,8 @@ def env_reset(
     pidx,
     stuck0,
     obs,
-    n_steps,
 ):
-    """Put env b at rest on the reference start point (k = 0) and fill its observation."""
+    # env b at rest on the reference start point (k = 0), with its observation
     n_axes = z.shape[1]
     p = pidx[b]
     for i in range(n_axes):
@@ -429,7 +446,7 @@ def env_reset(
             xm += cfg[C_NOISE_STD] * standard_normal(seed[b], 0, i, _STREAM_MEAS)
         res = nl[p, i, NL_RES]
         if res > 0.0:
-            xm = math.floor(xm / res + 0.5) * res
+            xm = np.floor(xm * nl[p, i, NL_INV_RES] + 0.5) * res
         ax[AX_MEAS, b, i] = xm
         ax[AX_VEL, b, i] = 0.0
         est[b, i] = ref_pav[0, 0, i] - z[b, i, 0]
@@ -437,4 +454,59 @@ def env_reset(
     status[b] = STATUS_OK
     pz = z[b, 2, 0] if n_axes == 3 else 0.0
     eps[b] = path_distance(seg_type, seg_data, seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
-    observe(b, 0, cfg, preview, ax, ref_pav, frame, scal, n_steps, obs)
+    observe(b, 0, cfg, obs_tab, ax, ref_pav, frame, obs)
+
+
+@njit(cache=True)
+def env_reset(
+    envs,
+    cfg,
+    obs_tab,
+    z,
+    ax,
+    k,
+    eps,
+    est,
+    status,
+    seed,
+    ref_pav,
+    frame,
+    seg_type,
+    seg_data,
+    seg_bounds,
+    nl,
+    pidx,
+    stuck0,
+    obs,
+    reward,
+    terminated,
+    truncated,
+):
+    """Put every env listed in ``envs`` (int64 indices) at rest on the reference start point
+    (k = 0), with its observation, zero reward and no done flags (seeds already in ``seed``)."""
+    for j in range(envs.shape[0]):
+        b = envs[j]
+        _reset_one(
+            b,
+            cfg,
+            obs_tab,
+            z,
+            ax,
+            k,
+            eps,
+            est,
+            status,
+            seed,
+            ref_pav,
+            frame,
+            seg_type,
+            seg_data,
+            seg_bounds,
+            nl,
+            pidx,
+            stuck0,
+            obs,
+        )
+        reward[b] = 0.0
+        terminated[b] = False
+        truncated[b] = False

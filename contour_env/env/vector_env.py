@@ -53,8 +53,7 @@ class ContouringVectorEnv(VectorEnv):
             self._rng = np.random.default_rng(base)
         else:
             raise ValueError("seed: the vector env takes one integer (env i gets seed + i)")
-        for b in range(self.num_envs):
-            self.core.reset_env(b, base + b)
+        self.core.reset_envs(np.arange(self.num_envs), [base + b for b in range(self.num_envs)])
         self._needs_reset[:] = False
         return self.core.obs.copy(), self.core.batch_info()
 
@@ -69,8 +68,9 @@ class ContouringVectorEnv(VectorEnv):
         active = ~resetting
         core.step(np.ascontiguousarray(a), active)
         if resetting.any():
-            for b in np.flatnonzero(resetting):
-                core.reset_env(int(b), int(self._rng.integers(0, 2**62)))
+            envs = np.flatnonzero(resetting)
+            # one draw per env in index order (the same seeds as drawing them one by one)
+            core.reset_envs(envs, self._rng.integers(0, 2**62, size=len(envs)).tolist())
         self._needs_reset = core.terminated | core.truncated
         return (
             core.obs.copy(),

@@ -26,11 +26,28 @@ import math
 import numpy as np
 from numba import njit
 
-# indices into the nonlinear-parameter vector ``nl``
-NL_FC, NL_FS, NL_VS, NL_AR, NL_PR, NL_AD, NL_FD, NL_PHASE, NL_FMAX, NL_RES, NL_MASS = range(11)
-NL_SIZE = 11
+# indices into the nonlinear-parameter vector ``nl``; NL_KR (2π / ripple period, rad/m),
+# NL_WD (2π · disturbance frequency, rad/s) and NL_INV_RES (1 / encoder resolution, 0 for an
+# exact encoder) are derived once when the parameters are packed, so the step multiplies
+# instead of dividing
+(
+    NL_FC,
+    NL_FS,
+    NL_VS,
+    NL_AR,
+    NL_PR,
+    NL_AD,
+    NL_FD,
+    NL_PHASE,
+    NL_FMAX,
+    NL_RES,
+    NL_MASS,
+    NL_KR,
+    NL_WD,
+    NL_INV_RES,
+) = range(14)
+NL_SIZE = 14
 
-TWO_PI = 2.0 * math.pi
 # largest deviation of friction from its first-order hold over one period (fraction of the
 # static friction) for which the whole-period step is kept in the Stribeck region
 FOH_FRICTION_TOL = 1e-3
@@ -41,93 +58,95 @@ def friction_force(v, fc, fs, vs):
     """Stribeck friction (f_c + (f_s − f_c) e^{−(v/v_s)²}) sgn(v), N; zero at v = 0."""
     if v == 0.0 or fs == 0.0:
         return 0.0
-    r2 = (v / vs) * (v / vs)
     mag = fc
-    # Beyond 6 v_s the Stribeck term is below 3e-16 of (f_s − f_c): skip the exponential.
-    # The one-trip loop (instead of an if) stops LLVM from speculating the exp call on every
-    # path, which made the common case several times slower.
-    for _ in range(1 if r2 <= 36.0 else 0):
-        mag += (fs - fc) * math.exp(-r2)
+    # Beyond 6 v_s the Stribeck term is below 3e-16 of (f_s − f_c): skip the division and the
+    # exponential. The one-trip loop (instead of an if) stops LLVM from speculating the exp
+    # call on every path, which made the common case several times slower.
+    for _ in range(1 if abs(v) <= 6.0 * vs else 0):
+        r = v / vs
+        mag += (fs - fc) * math.exp(-(r * r))
     return mag if v > 0.0 else -mag
 
 
 @njit(cache=True, inline="always")
 def external_force(x, t, nl, p, i):
     """Ripple + disturbance (N) acting against the drive of axis i (parameter set p), at
-    position x (m) and time t (s)."""
+    position x (m) and time t (s): A_r sin(2π x / P_r) + A_d sin(2π f_d t + φ)."""
     f = 0.0
     # one-trip loops rather than ifs: LLVM speculates an if-guarded sin (computing it even when
     # the amplitude is zero); a loop it leaves alone
     for _ in range(1 if nl[p, i, NL_AR] != 0.0 else 0):
-        f += nl[p, i, NL_AR] * math.sin(TWO_PI * x / nl[p, i, NL_PR])
+        f += nl[p, i, NL_AR] * math.sin(nl[p, i, NL_KR] * x)
     for _ in range(1 if nl[p, i, NL_AD] != 0.0 else 0):
-        f += nl[p, i, NL_AD] * math.sin(TWO_PI * nl[p, i, NL_FD] * t + nl[p, i, NL_PHASE])
+        f += nl[p, i, NL_AD] * math.sin(nl[p, i, NL_WD] * t + nl[p, i, NL_PHASE])
     return f
 
 
 @njit(cache=True, inline="always")
-def _advance_n(z, out, mat, p, i, u, w0, w1, ns):
+def _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, ns):
     for r in range(ns):
         acc = mat[p, i, r, ns] * u + mat[p, i, r, ns + 1] * w0 + mat[p, i, r, ns + 2] * w1
         for c in range(ns):
-            acc += mat[p, i, r, c] * z[c]
-        out[r] = acc
+            acc += mat[p, i, r, c] * Z[zr, c]
+        O[orow, r] = acc
 
 
 @njit(cache=True, inline="always")
-def _advance(z, out, mat, p, i, u, w0, w1, ns):
-    # out = Phi z + Gu u + Ga w0 + Gb w1, with the matrices of axis i, parameter set p.
-    # Literal sizes let the compiler unroll the small mat-vec (about 3x faster than a loop
-    # over a run-time size).
+def _advance(Z, zr, O, orow, mat, p, i, u, w0, w1, ns):
+    # O[orow] = Phi Z[zr] + Gu u + Ga w0 + Gb w1 (rows of 2-D arrays, never the same row),
+    # with the matrices of axis i, parameter set p. Literal sizes let the compiler unroll the
+    # small mat-vec (about 3x faster than a loop over a run-time size).
     if ns == 2:
-        _advance_n(z, out, mat, p, i, u, w0, w1, 2)
+        _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, 2)
     elif ns == 3:
-        _advance_n(z, out, mat, p, i, u, w0, w1, 3)
+        _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, 3)
     elif ns == 4:
-        _advance_n(z, out, mat, p, i, u, w0, w1, 4)
+        _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, 4)
     else:
-        _advance_n(z, out, mat, p, i, u, w0, w1, 5)
+        _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, 5)
 
 
 @njit(cache=True, inline="always")
-def _nonfriction_force(z, u, wnf, cont, p, i, ns):
+def _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns):
     # Force on the moving mass excluding friction: m * (A[1,:] z + B_u[1] u + B_w[1] wnf).
     acc = cont[p, i, ns] * u + cont[p, i, ns + 1] * wnf
     for c in range(ns):
-        acc += cont[p, i, c] * z[c]
+        acc += cont[p, i, c] * Z[zr, c]
     return acc / cont[p, i, ns + 1]
 
 
 @njit(cache=True, inline="always")
-def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra):
-    """Advance one axis state z (1-D scratch copy, in place) by T seconds with the held force
-    command u (N); matrices and parameters of axis i, parameter set p (full packed arrays,
-    indexed, so no views are created: this function is inlined into the batch loops).
+def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s, w_extra):
+    """Advance the axis state in row ``zr`` of the 2-D state array Z (in place) by T seconds
+    with the held force command u (N); matrices and parameters of axis i, parameter set p
+    (full packed arrays, indexed); rows s and s + 1 of the 2-D scratch array S are work space.
+    Rows and indices rather than 1-D views: a view costs two atomic reference-count updates on
+    its parent array, which the threads of the vectorised env would contend for.
 
     ``w_extra`` is an additional force on the moving mass held over the period (N), e.g. a
     random disturbance. Returns the new stuck flag (1.0 while held by static friction).
     """
-    ns = z.shape[0]
+    ns = Z.shape[1]
     fc = nl[p, i, NL_FC]
     fs = nl[p, i, NL_FS]
     vs = nl[p, i, NL_VS]
-    v0 = z[1]
+    v0 = Z[zr, 1]
     if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
         # whole period, first-order-hold predictor–corrector
         f0 = friction_force(v0, fc, fs, vs)
-        w0 = -(f0 + (external_force(z[0], t0, nl, p, i) - w_extra))
-        _advance(z, tmp, mat_T, p, i, u, w0, w0, ns)
-        v1 = tmp[1]
+        w0 = -(f0 + (external_force(Z[zr, 0], t0, nl, p, i) - w_extra))
+        _advance(Z, zr, S, s, mat_T, p, i, u, w0, w0, ns)
+        v1 = S[s, 1]
         w1 = -(
-            friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t0 + T, nl, p, i) - w_extra)
+            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t0 + T, nl, p, i) - w_extra)
         )
         if w1 != w0:  # equal when w does not depend on the state (e.g. pure Coulomb at speed)
             # the map is linear in w1: add the end-of-period term's change, Gb (w1 − w0),
             # instead of a second full mat-vec
             dw = w1 - w0
             for r in range(ns):
-                tmp[r] += mat_T[p, i, r, ns + 2] * dw
-        v2 = tmp[1]
+                S[s, r] += mat_T[p, i, r, ns + 2] * dw
+        v2 = S[s, 1]
         # accepted unless the velocity changes sign (reversal: substeps with stick–slip) or
         # crosses the Stribeck region in large steps (friction then varies too fast for the
         # first-order hold: its value at the mid-period velocity differs from the mean of the
@@ -143,107 +162,110 @@ def axis_step(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2
                 accept = abs(f_mid - f_ends) <= FOH_FRICTION_TOL * fs
         if accept:
             for r in range(ns):
-                z[r] = tmp[r]
+                Z[zr, r] = S[s, r]
             return 0.0
     return _axis_step_slow(
-        z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra
+        Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
     )
 
 
-@njit(cache=True)
-def _axis_step_slow(z, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, tmp, tmp2, w_extra):
+@njit(cache=True, error_model="numpy")
+def _axis_step_slow(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s, w_extra):
     # Stuck, breaking away, or near a velocity reversal: kept out of line so the common
-    # moving case stays small where it is inlined.
-    ns = z.shape[0]
+    # moving case stays small where it is inlined. Row s of S is the trial state, row s + 1
+    # the state interpolated at a reversal.
+    ns = Z.shape[1]
+    s2 = s + 1
     fc = nl[p, i, NL_FC]
     fs = nl[p, i, NL_FS]
     vs = nl[p, i, NL_VS]
-    v0 = z[1]
+    v0 = Z[zr, 1]
     if stuck == 0.0 and v0 == 0.0 and fs > 0.0:
         stuck = 1.0
     if stuck != 0.0:
         # held by static friction over the whole period if the non-friction force stays within
         # f_s at both ends of the period (the usual case at rest: no substeps needed)
-        wnf = -(external_force(z[0], t0, nl, p, i) - w_extra)
-        f_nf = _nonfriction_force(z, u, wnf, cont, p, i, ns)
+        wnf = -(external_force(Z[zr, 0], t0, nl, p, i) - w_extra)
+        f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
         if abs(f_nf) <= fs:
-            _advance(z, tmp, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
-            tmp[0] = z[0]
-            tmp[1] = 0.0
-            wnf1 = -(external_force(z[0], t0 + T, nl, p, i) - w_extra)
-            if abs(_nonfriction_force(tmp, u, wnf1, cont, p, i, ns)) <= fs:
+            _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+            S[s, 0] = Z[zr, 0]
+            S[s, 1] = 0.0
+            wnf1 = -(external_force(Z[zr, 0], t0 + T, nl, p, i) - w_extra)
+            if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) <= fs:
                 for r in range(ns):
-                    z[r] = tmp[r]
+                    Z[zr, r] = S[s, r]
                 return 1.0
     h = T / n_sub
     for j in range(n_sub):
         t = t0 + j * h
-        if stuck == 0.0 and z[1] == 0.0 and fs > 0.0:
+        if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
             stuck = 1.0
         if stuck != 0.0:
-            wnf = -(external_force(z[0], t, nl, p, i) - w_extra)
-            f_nf = _nonfriction_force(z, u, wnf, cont, p, i, ns)
+            wnf = -(external_force(Z[zr, 0], t, nl, p, i) - w_extra)
+            f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
             if abs(f_nf) <= fs:
-                x_hold = z[0]
-                _advance(z, tmp, mat_h, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+                x_hold = Z[zr, 0]
+                _advance(Z, zr, S, s, mat_h, p, i, u, wnf - f_nf, wnf - f_nf, ns)
                 for r in range(ns):
-                    z[r] = tmp[r]
-                z[0] = x_hold
-                z[1] = 0.0
+                    Z[zr, r] = S[s, r]
+                Z[zr, 0] = x_hold
+                Z[zr, 1] = 0.0
                 continue
             # break away in the direction of the net force; friction starts at f_s
             stuck = 0.0
             direction = 1.0 if f_nf > 0.0 else -1.0
             w0 = wnf - direction * fs
-            _advance(z, tmp, mat_h, p, i, u, w0, w0, ns)
-            v1 = tmp[1]
+            _advance(Z, zr, S, s, mat_h, p, i, u, w0, w0, ns)
+            v1 = S[s, 1]
             if v1 * direction > 0.0:
                 w1 = -(
                     friction_force(v1, fc, fs, vs)
-                    + (external_force(tmp[0], t + h, nl, p, i) - w_extra)
+                    + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
                 )
-                _advance(z, tmp, mat_h, p, i, u, w0, w1, ns)
+                _advance(Z, zr, S, s, mat_h, p, i, u, w0, w1, ns)
             for r in range(ns):
-                z[r] = tmp[r]
-            if z[1] * direction <= 0.0:
-                z[1] = 0.0
+                Z[zr, r] = S[s, r]
+            if Z[zr, 1] * direction <= 0.0:
+                Z[zr, 1] = 0.0
                 stuck = 1.0
             continue
-        v0 = z[1]
+        v0 = Z[zr, 1]
         f0 = friction_force(v0, fc, fs, vs)
-        w0 = -(f0 + (external_force(z[0], t, nl, p, i) - w_extra))
-        _advance(z, tmp, mat_h, p, i, u, w0, w0, ns)
-        v1 = tmp[1]
+        w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+        _advance(Z, zr, S, s, mat_h, p, i, u, w0, w0, ns)
+        v1 = S[s, 1]
         if v0 * v1 > 0.0:
             w1 = -(
-                friction_force(v1, fc, fs, vs) + (external_force(tmp[0], t + h, nl, p, i) - w_extra)
+                friction_force(v1, fc, fs, vs)
+                + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
             )
-            _advance(z, tmp, mat_h, p, i, u, w0, w1, ns)
-            v1 = tmp[1]
+            _advance(Z, zr, S, s, mat_h, p, i, u, w0, w1, ns)
+            v1 = S[s, 1]
         if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
             for r in range(ns):
-                z[r] = tmp[r]
+                Z[zr, r] = S[s, r]
             continue
         # velocity reversal inside the substep: locate it by interpolation, test for sticking
         alpha = v0 / (v0 - v1)
         for r in range(ns):
-            tmp2[r] = z[r] + alpha * (tmp[r] - z[r])
-        tmp2[1] = 0.0
+            S[s2, r] = Z[zr, r] + alpha * (S[s, r] - Z[zr, r])
+        S[s2, 1] = 0.0
         t_c = t + alpha * h
-        wnf = -(external_force(tmp2[0], t_c, nl, p, i) - w_extra)
-        f_nf = _nonfriction_force(tmp2, u, wnf, cont, p, i, ns)
+        wnf = -(external_force(S[s2, 0], t_c, nl, p, i) - w_extra)
+        f_nf = _nonfriction_force(S, s2, u, wnf, cont, p, i, ns)
         if abs(f_nf) <= fs:
             for r in range(ns):
-                z[r] = tmp2[r]
+                Z[zr, r] = S[s2, r]
             stuck = 1.0
             continue
         # slips through: friction reverses at t_c; use its time average over the substep
         f_after = fs if f_nf > 0.0 else -fs
         f_avg = alpha * f0 + (1.0 - alpha) * f_after
-        w = -(f_avg + (external_force(z[0], t, nl, p, i) - w_extra))
-        _advance(z, tmp, mat_h, p, i, u, w, w, ns)
+        w = -(f_avg + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+        _advance(Z, zr, S, s, mat_h, p, i, u, w, w, ns)
         for r in range(ns):
-            z[r] = tmp[r]
+            Z[zr, r] = S[s, r]
     return stuck
 
 
@@ -275,9 +297,8 @@ def plant_step_batch(
     force on each mass held over the period (N; zeros for none).
     """
     n_env, n_axes, ns = z.shape
-    tmp = np.empty(ns)
-    tmp2 = np.empty(ns)
-    cur = np.empty(ns)
+    work = np.empty((2, ns))
+    cur = np.empty((1, ns))
     for b in range(n_env):
         p = pidx[b]
         for i in range(n_axes):
@@ -293,9 +314,10 @@ def plant_step_batch(
                 u = -fmax
             applied_out[b, i] = u
             for r in range(ns):
-                cur[r] = z[b, i, r]
+                cur[0, r] = z[b, i, r]
             stuck[b, i] = axis_step(
                 cur,
+                0,
                 stuck[b, i],
                 u,
                 t0,
@@ -307,9 +329,9 @@ def plant_step_batch(
                 nl,
                 p,
                 i,
-                tmp,
-                tmp2,
+                work,
+                0,
                 w_extra[b, i],
             )
             for r in range(ns):
-                z[b, i, r] = cur[r]
+                z[b, i, r] = cur[0, r]

@@ -16,12 +16,15 @@ from .kernel import (
     NL_FD,
     NL_FMAX,
     NL_FS,
+    NL_INV_RES,
+    NL_KR,
     NL_MASS,
     NL_PHASE,
     NL_PR,
     NL_RES,
     NL_SIZE,
     NL_VS,
+    NL_WD,
     plant_step_batch,
 )
 from .kernel import NL_AR as _NL_AR
@@ -109,6 +112,11 @@ def pack_params(params_list: list[PlantParams]) -> PackedPlant:
         v[:, NL_FMAX] = p.force_limit_N
         v[:, NL_RES] = p.encoder_resolution_m
         v[:, NL_MASS] = p.mass_kg
+        period = np.asarray(p.ripple_period_m, dtype=float)
+        res = np.asarray(p.encoder_resolution_m, dtype=float)
+        v[:, NL_KR] = np.where(period > 0, 2.0 * np.pi / np.where(period > 0, period, 1.0), 0.0)
+        v[:, NL_WD] = 2.0 * np.pi * np.asarray(p.disturbance_frequency_hz, dtype=float)
+        v[:, NL_INV_RES] = np.where(res > 0, 1.0 / np.where(res > 0, res, 1.0), 0.0)
     return PackedPlant(mat_T, mat_h, cont, nl, pidx)
 
 
