@@ -11,7 +11,9 @@ One call advances a batch of n-axis feed drives by one servo period T:
 
 Packed per-(env, axis) arrays (built by :class:`contour_env.plants.model.Plant`):
 
-- ``mat_T``, ``mat_h``: (P, A, ns, ns + 3) = [Phi | Gu | Ga | Gb] over T and over T / n_sub;
+- ``mat_T``: (P, A, ns, ns + 3) = [Phi | Gu | Ga | Gb] over T;
+- ``mat_h``: (P · N_SUB_LEVELS, A, ns, ns + 3), the same over the substep lengths
+  T / n_sub, T / 2, T / 3, T / 4 (row p · N_SUB_LEVELS + level, see SUB_LEVEL_DIVISORS);
 - ``cont``: (P, A, ns + 2) = row 1 of the continuous A, then B_u[1], B_w[1];
 - ``nl``: (P, A, NL_SIZE) nonlinear parameters, indices below;
 
@@ -51,6 +53,12 @@ NL_SIZE = 14
 # largest deviation of friction from its first-order hold over one period (fraction of the
 # static friction) for which the whole-period step is kept in the Stribeck region
 FOH_FRICTION_TOL = 1e-3
+# substep lengths T / d with discretised matrices (level 0: the plant's friction_substeps, the
+# fine substeps of velocity reversals, sticking and break-away). A period in the Stribeck band
+# whose first-order-hold deviation is q · FOH_FRICTION_TOL with q <= d² is split into d equal
+# substeps instead of the fine ones: the deviation falls with the square of the step.
+SUB_LEVEL_DIVISORS = (0, 2, 3, 4)
+N_SUB_LEVELS = 4
 
 
 @njit(cache=True, inline="always")
@@ -69,6 +77,15 @@ def friction_force(v, fc, fs, vs):
 
 
 @njit(cache=True, inline="always")
+def _disturbance_force(t, nl, p, i):
+    # the periodic disturbance A_d sin(2π f_d t + φ) of axis i, N
+    f = 0.0
+    for _ in range(1 if nl[p, i, NL_AD] != 0.0 else 0):
+        f += nl[p, i, NL_AD] * math.sin(nl[p, i, NL_WD] * t + nl[p, i, NL_PHASE])
+    return f
+
+
+@njit(cache=True, inline="always")
 def external_force(x, t, nl, p, i):
     """Ripple + disturbance (N) acting against the drive of axis i (parameter set p), at
     position x (m) and time t (s): A_r sin(2π x / P_r) + A_d sin(2π f_d t + φ)."""
@@ -77,9 +94,23 @@ def external_force(x, t, nl, p, i):
     # the amplitude is zero); a loop it leaves alone
     for _ in range(1 if nl[p, i, NL_AR] != 0.0 else 0):
         f += nl[p, i, NL_AR] * math.sin(nl[p, i, NL_KR] * x)
-    for _ in range(1 if nl[p, i, NL_AD] != 0.0 else 0):
-        f += nl[p, i, NL_AD] * math.sin(nl[p, i, NL_WD] * t + nl[p, i, NL_PHASE])
-    return f
+    return f + _disturbance_force(t, nl, p, i)
+
+
+# |Δθ| up to which sin(θ0 + Δθ) is rotated from sin θ0, cos θ0 (series truncation < 1e-17)
+_SHIFT_MAX = 0.05
+
+
+@njit(cache=True, inline="always")
+def _sin_shifted(s0, c0, d):
+    # sin(θ0 + d) = sin θ0 cos d + cos θ0 sin d, with the Taylor series of sin d (to d⁷) and
+    # cos d (to d⁸): for |d| <= _SHIFT_MAX the first omitted terms are below 6e-18 and 3e-20
+    d2 = d * d
+    sd = d * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0) * (1.0 - d2 * (1.0 / 42.0))))
+    cd = 1.0 - d2 * 0.5 * (
+        1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0) * (1.0 - d2 * (1.0 / 56.0)))
+    )
+    return s0 * cd + c0 * sd
 
 
 @njit(cache=True, inline="always")
@@ -131,14 +162,35 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
     fs = nl[p, i, NL_FS]
     vs = nl[p, i, NL_VS]
     v0 = Z[zr, 1]
+    # substeps if the whole period is not accepted: the fine ones (level 0) unless set below
+    n_use = n_sub
+    level = 0
     if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
         # whole period, first-order-hold predictor–corrector
         f0 = friction_force(v0, fc, fs, vs)
-        w0 = -(f0 + (external_force(Z[zr, 0], t0, nl, p, i) - w_extra))
+        # ripple at the start (sin and cos of one angle: one sincos call) and, rotated from
+        # it, at the predicted end of the period (the angle moves by far less than 0.05 rad
+        # per period at any feed): one libm call per period instead of two
+        x0 = Z[zr, 0]
+        ar = nl[p, i, NL_AR]
+        kr = nl[p, i, NL_KR]
+        s0 = 0.0
+        c0 = 0.0
+        rip0 = 0.0
+        for _ in range(1 if ar != 0.0 else 0):
+            s0 = math.sin(kr * x0)
+            c0 = math.cos(kr * x0)
+            rip0 = ar * s0
+        w0 = -(f0 + (rip0 + _disturbance_force(t0, nl, p, i) - w_extra))
         _advance(Z, zr, S, s, mat_T, p, i, u, w0, w0, ns)
         v1 = S[s, 1]
+        x1 = S[s, 0]
+        rip1 = 0.0
+        for _ in range(1 if ar != 0.0 else 0):
+            d = kr * (x1 - x0)
+            rip1 = ar * (_sin_shifted(s0, c0, d) if abs(d) <= _SHIFT_MAX else math.sin(kr * x1))
         w1 = -(
-            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t0 + T, nl, p, i) - w_extra)
+            friction_force(v1, fc, fs, vs) + (rip1 + _disturbance_force(t0 + T, nl, p, i) - w_extra)
         )
         if w1 != w0:  # equal when w does not depend on the state (e.g. pure Coulomb at speed)
             # the map is linear in w1: add the end-of-period term's change, Gb (w1 − w0),
@@ -159,22 +211,34 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
             for _ in range(0 if accept else 1):
                 f_mid = friction_force(0.5 * (v0 + v2), fc, fs, vs)
                 f_ends = 0.5 * (f0 + friction_force(v2, fc, fs, vs))
-                accept = abs(f_mid - f_ends) <= FOH_FRICTION_TOL * fs
+                q = abs(f_mid - f_ends) / (FOH_FRICTION_TOL * fs)
+                accept = q <= 1.0
+                # no reversal, friction merely curved: d equal substeps with d² >= 2 q (the
+                # deviation falls with the square of the step; a factor 2 to spare)
+                if not accept and q <= 8.0:
+                    d = 2 if q <= 2.0 else (3 if q <= 4.5 else 4)
+                    if d < n_sub:
+                        n_use = d
+                        level = d - 1
         if accept:
             for r in range(ns):
                 Z[zr, r] = S[s, r]
             return 0.0
     return _axis_step_slow(
-        Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
+        Z, zr, stuck, u, t0, T, n_use, level, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
     )
 
 
 @njit(cache=True, error_model="numpy")
-def _axis_step_slow(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s, w_extra):
-    # Stuck, breaking away, or near a velocity reversal: kept out of line so the common
-    # moving case stays small where it is inlined. Row s of S is the trial state, row s + 1
-    # the state interpolated at a reversal.
+def _axis_step_slow(
+    Z, zr, stuck, u, t0, T, n_sub, level, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
+):
+    # Stuck, breaking away, near a velocity reversal, or in the Stribeck band: n_sub substeps
+    # of T / n_sub with the matrices of substep level ``level`` (row p · N_SUB_LEVELS + level of
+    # mat_h). Kept out of line so the common moving case stays small where it is inlined.
+    # Row s of S is the trial state, row s + 1 the state interpolated at a reversal.
     ns = Z.shape[1]
+    ph = p * N_SUB_LEVELS + level
     s2 = s + 1
     fc = nl[p, i, NL_FC]
     fs = nl[p, i, NL_FS]
@@ -206,7 +270,7 @@ def _axis_step_slow(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i,
             f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
             if abs(f_nf) <= fs:
                 x_hold = Z[zr, 0]
-                _advance(Z, zr, S, s, mat_h, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+                _advance(Z, zr, S, s, mat_h, ph, i, u, wnf - f_nf, wnf - f_nf, ns)
                 for r in range(ns):
                     Z[zr, r] = S[s, r]
                 Z[zr, 0] = x_hold
@@ -216,14 +280,14 @@ def _axis_step_slow(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i,
             stuck = 0.0
             direction = 1.0 if f_nf > 0.0 else -1.0
             w0 = wnf - direction * fs
-            _advance(Z, zr, S, s, mat_h, p, i, u, w0, w0, ns)
+            _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
             v1 = S[s, 1]
             if v1 * direction > 0.0:
                 w1 = -(
                     friction_force(v1, fc, fs, vs)
                     + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
                 )
-                _advance(Z, zr, S, s, mat_h, p, i, u, w0, w1, ns)
+                _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w1, ns)
             for r in range(ns):
                 Z[zr, r] = S[s, r]
             if Z[zr, 1] * direction <= 0.0:
@@ -233,14 +297,14 @@ def _axis_step_slow(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i,
         v0 = Z[zr, 1]
         f0 = friction_force(v0, fc, fs, vs)
         w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
-        _advance(Z, zr, S, s, mat_h, p, i, u, w0, w0, ns)
+        _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
         v1 = S[s, 1]
         if v0 * v1 > 0.0:
             w1 = -(
                 friction_force(v1, fc, fs, vs)
                 + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
             )
-            _advance(Z, zr, S, s, mat_h, p, i, u, w0, w1, ns)
+            _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w1, ns)
             v1 = S[s, 1]
         if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
             for r in range(ns):
@@ -263,7 +327,7 @@ def _axis_step_slow(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i,
         f_after = fs if f_nf > 0.0 else -fs
         f_avg = alpha * f0 + (1.0 - alpha) * f_after
         w = -(f_avg + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
-        _advance(Z, zr, S, s, mat_h, p, i, u, w, w, ns)
+        _advance(Z, zr, S, s, mat_h, ph, i, u, w, w, ns)
         for r in range(ns):
             Z[zr, r] = S[s, r]
     return stuck
@@ -290,9 +354,10 @@ def plant_step_batch(
     """Advance every env of the batch by one servo period, in place.
 
     z (B, A, ns), stuck (B, A), u_pending (B, A): state; pidx (B,) int64: the parameter set
-    (first index of mat_T, mat_h, cont, nl) of each env; action_force (B, A): the command
-    computed at this sample, N (or the velocity-command unit). With ``delay`` the command
-    applied over this period is the previous one (``u_pending``) and this one is stored.
+    (first index of mat_T, cont, nl; of mat_h see the module docstring) of each env;
+    action_force (B, A): the command computed at this sample, N (or the velocity-command
+    unit). With ``delay`` the command applied over this period is the previous one
+    (``u_pending``) and this one is stored.
     applied_out (B, A) receives the applied (saturated) command; w_extra (B, A) is an extra
     force on each mass held over the period (N; zeros for none).
     """

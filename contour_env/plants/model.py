@@ -11,6 +11,7 @@ import numpy as np
 from .catalog import resolve_plant
 from .discretize import continuous_model, discretize, state_size
 from .kernel import (
+    N_SUB_LEVELS,
     NL_AD,
     NL_FC,
     NL_FD,
@@ -25,6 +26,7 @@ from .kernel import (
     NL_SIZE,
     NL_VS,
     NL_WD,
+    SUB_LEVEL_DIVISORS,
     plant_step_batch,
 )
 from .kernel import NL_AR as _NL_AR
@@ -91,14 +93,18 @@ def pack_params(params_list: list[PlantParams]) -> PackedPlant:
         pidx[b] = index[id(p)]
     n_sets, n_axes = len(distinct), first.n_axes
     mat_T = np.empty((n_sets, n_axes, ns, ns + 3))
-    mat_h = np.empty((n_sets, n_axes, ns, ns + 3))
+    mat_h = np.empty((n_sets * N_SUB_LEVELS, n_axes, ns, ns + 3))
     cont = np.empty((n_sets, n_axes, ns + 2))
     nl = np.zeros((n_sets, n_axes, NL_SIZE))
     for q, p in enumerate(distinct):
         A, Bu, Bw = continuous_model(p)
-        for out, h in ((mat_T, T), (mat_h, T / n_sub)):
+        steps = [(mat_T, q, T)] + [
+            (mat_h, q * N_SUB_LEVELS + level, T / (d if d else n_sub))
+            for level, d in enumerate(SUB_LEVEL_DIVISORS)
+        ]
+        for out, row, h in steps:
             Phi, Gu, Ga, Gb = discretize(A, Bu, Bw, h)
-            out[q] = np.concatenate([Phi, Gu[..., None], Ga[..., None], Gb[..., None]], axis=-1)
+            out[row] = np.concatenate([Phi, Gu[..., None], Ga[..., None], Gb[..., None]], axis=-1)
         cont[q] = np.concatenate([A[:, 1, :], Bu[:, 1:2], Bw[:, 1:2]], axis=1)
         v = nl[q]
         v[:, NL_FC] = p.coulomb_N
