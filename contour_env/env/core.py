@@ -291,8 +291,16 @@ class EnvCore:
             "tracking_error": reference - position,
             "force": ax[K.AX_APPLIED].copy(),
             "saturated": ax[K.AX_SAT] > 0.0,
-            "termination_reason": _REASON_BY_STATUS[self.status],
+            "termination_reason": self._reasons(),
         }
+
+    def _reasons(self) -> np.ndarray:
+        # "" for every running env: zero-filled memory, no per-element work unless one ended
+        reason = np.zeros(self.n_envs, dtype=_REASON_BY_STATUS.dtype)
+        if self.status.any():
+            ended = np.flatnonzero(self.status)
+            reason[ended] = _REASON_BY_STATUS[self.status[ended]]
+        return reason
 
     def signals_batch(self) -> dict:
         """:meth:`signals` of every env, stacked (leading axis B)."""
