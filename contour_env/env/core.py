@@ -144,6 +144,7 @@ class EnvCore:
             (K.C_INV_FEED, setup.feedrate_m_s),
             (K.C_INV_ACC, setup.max_accel_m_s2),
             (K.C_INV_EPS, config.contour_error_scale_m),
+            (K.C_INV_AXES, self.dim),
         ):
             cfg[slot] = 1.0 / value
         cfg[K.CFG_SIZE :] = 1.0 / (setup.feedrate_m_s * preview * self.T)

@@ -39,10 +39,11 @@ from ..plants.kernel import NL_FD, NL_FMAX, NL_INV_RES, NL_RES, axis_step
     C_INV_FEED,
     C_INV_ACC,
     C_INV_EPS,
-) = range(21)
+    C_INV_AXES,
+) = range(22)
 # cfg[CFG_SIZE + j]: 1 / (feed scale · preview time j), the preview's scale; the reciprocals
 # are computed once by EnvCore so that the per-step code multiplies instead of dividing
-CFG_SIZE = 21
+CFG_SIZE = 22
 # integer configuration (icfg)
 I_NSTEPS, I_NSUB, I_DELAY = range(3)
 ICFG_SIZE = 3
@@ -105,8 +106,10 @@ def observe(b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
             acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[AX_VEL, b, c])
         obs[b, o] = min(max(acc * inv_verr, -clip), clip)
         o += 1
-    for j in range(obs_tab.shape[1]):
-        obs[b, o + j] = obs_tab[kk, j]
+    # (indexed by the range variable itself: with o + j numba adds a negative-index check
+    # and LLVM turned the copy into a vector scatter)
+    for jj in range(o, o + obs_tab.shape[1]):
+        obs[b, jj] = obs_tab[kk, jj - o]
     o += obs_tab.shape[1]
     for r in range(dim):
         obs[b, o] = ax[AX_PREV, b, r]
@@ -222,7 +225,7 @@ def _step_one(
             status[b] = STATUS_OK
         reward[b] = (
             -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) * cfg[C_INV_EPS]
-            - cfg[C_W_EFFORT] * effort / n_axes
+            - cfg[C_W_EFFORT] * effort * cfg[C_INV_AXES]
         )
         observe(b, kk, cfg, obs_tab, ax, ref_pav, frame, obs)
     else:

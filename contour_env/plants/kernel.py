@@ -97,22 +97,6 @@ def external_force(x, t, nl, p, i):
     return f + _disturbance_force(t, nl, p, i)
 
 
-# |Δθ| up to which sin(θ0 + Δθ) is rotated from sin θ0, cos θ0 (series truncation < 1e-17)
-_SHIFT_MAX = 0.05
-
-
-@njit(cache=True, inline="always")
-def _sin_shifted(s0, c0, d):
-    # sin(θ0 + d) = sin θ0 cos d + cos θ0 sin d, with the Taylor series of sin d (to d⁷) and
-    # cos d (to d⁸): for |d| <= _SHIFT_MAX the first omitted terms are below 6e-18 and 3e-20
-    d2 = d * d
-    sd = d * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0) * (1.0 - d2 * (1.0 / 42.0))))
-    cd = 1.0 - d2 * 0.5 * (
-        1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0) * (1.0 - d2 * (1.0 / 56.0)))
-    )
-    return s0 * cd + c0 * sd
-
-
 @njit(cache=True, inline="always")
 def _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, ns):
     for r in range(ns):
@@ -168,29 +152,11 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
     if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
         # whole period, first-order-hold predictor–corrector
         f0 = friction_force(v0, fc, fs, vs)
-        # ripple at the start (sin and cos of one angle: one sincos call) and, rotated from
-        # it, at the predicted end of the period (the angle moves by far less than 0.05 rad
-        # per period at any feed): one libm call per period instead of two
-        x0 = Z[zr, 0]
-        ar = nl[p, i, NL_AR]
-        kr = nl[p, i, NL_KR]
-        s0 = 0.0
-        c0 = 0.0
-        rip0 = 0.0
-        for _ in range(1 if ar != 0.0 else 0):
-            s0 = math.sin(kr * x0)
-            c0 = math.cos(kr * x0)
-            rip0 = ar * s0
-        w0 = -(f0 + (rip0 + _disturbance_force(t0, nl, p, i) - w_extra))
+        w0 = -(f0 + (external_force(Z[zr, 0], t0, nl, p, i) - w_extra))
         _advance(Z, zr, S, s, mat_T, p, i, u, w0, w0, ns)
         v1 = S[s, 1]
-        x1 = S[s, 0]
-        rip1 = 0.0
-        for _ in range(1 if ar != 0.0 else 0):
-            d = kr * (x1 - x0)
-            rip1 = ar * (_sin_shifted(s0, c0, d) if abs(d) <= _SHIFT_MAX else math.sin(kr * x1))
         w1 = -(
-            friction_force(v1, fc, fs, vs) + (rip1 + _disturbance_force(t0 + T, nl, p, i) - w_extra)
+            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t0 + T, nl, p, i) - w_extra)
         )
         if w1 != w0:  # equal when w does not depend on the state (e.g. pure Coulomb at speed)
             # the map is linear in w1: add the end-of-period term's change, Gb (w1 − w0),
