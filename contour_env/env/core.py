@@ -177,6 +177,13 @@ class EnvCore:
         self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
         self.action = np.zeros((B, A))
         self.scratch = np.zeros((2 * B, ns))
+        # empty info arrays: the kernel fills none
+        self._no_info = (
+            np.empty((K.INFO_ROWS, 0, A)),
+            np.empty((2, 0)),
+            np.empty((0, A), dtype=bool),
+            np.empty(0, dtype=np.int64),
+        )
         # threads pay off only for large batches; results are identical either way
         self._step_kernel = K.env_step_parallel if B >= PARALLEL_MIN_ENVS else K.env_step
 
@@ -215,9 +222,55 @@ class EnvCore:
             self.truncated,
         )
 
-    def step(self, action: np.ndarray, active: np.ndarray) -> None:
-        """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf."""
+    def new_info_arrays(self) -> tuple:
+        """Fresh (uninitialised) arrays for :meth:`step` to fill with the batched info."""
+        B, A = self.n_envs, self.dim
+        return (
+            np.empty((K.INFO_ROWS, B, A)),
+            np.empty((2, B)),
+            np.empty((B, A), dtype=bool),
+            np.empty(B, dtype=np.int64),
+        )
+
+    def fill_info(self, info_arrays: tuple, envs) -> None:
+        """Fill the info arrays of the envs ``envs`` from their current state (e.g. after a
+        reset that followed the step)."""
+        K.fill_info_envs(
+            np.ascontiguousarray(envs, dtype=np.int64),
+            self.T,
+            self.k,
+            self.z,
+            self.ax,
+            self.eps,
+            self.est,
+            info_arrays,
+        )
+
+    def info_dict(self, info_arrays: tuple) -> dict:
+        """The batched ``info`` (keys of :meth:`info`, leading axis B) from filled arrays."""
+        f, sc, sat, step = info_arrays
+        return {
+            "time": sc[0],
+            "step": step,
+            "position": f[K.INFO_POSITION],
+            "measured_position": f[K.INFO_MEASURED],
+            "velocity": f[K.INFO_VELOCITY],
+            "reference": f[K.INFO_REFERENCE],
+            "contour_error": sc[1],
+            "contour_error_estimate": f[K.INFO_ESTIMATE],
+            "tracking_error": f[K.INFO_TRACKING],
+            "force": f[K.INFO_FORCE],
+            "saturated": sat,
+            "termination_reason": self._reasons(),
+        }
+
+    def step(self, action: np.ndarray, active: np.ndarray, info_arrays=None) -> None:
+        """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf.
+        With ``info_arrays`` (:meth:`new_info_arrays`) the kernel also fills the batched info
+        of every stepped env, while its data is in cache."""
         p = self.packed
+        if info_arrays is None:
+            info_arrays = self._no_info
         bad = self._step_kernel(
             self.cfg,
             self.icfg,
@@ -246,6 +299,7 @@ class EnvCore:
             self.terminated,
             self.truncated,
             self.scratch,
+            info_arrays,
         )
         if bad >= 0:
             raise ValueError(
@@ -296,12 +350,12 @@ class EnvCore:
         }
 
     def _reasons(self) -> np.ndarray:
-        # "" for every running env: zero-filled memory, no per-element work unless one ended
-        reason = np.zeros(self.n_envs, dtype=_REASON_BY_STATUS.dtype)
-        if self.status.any():
-            ended = np.flatnonzero(self.status)
-            reason[ended] = _REASON_BY_STATUS[self.status[ended]]
-        return reason
+        # While every env runs (almost every step) a read-only broadcast of "": no memory at
+        # all (a (B,) array of 19-character strings is the size of five float arrays); a real
+        # array once one ended.
+        if not self.status.any():
+            return np.broadcast_to(_REASON_BY_STATUS[:1], (self.n_envs,))
+        return _REASON_BY_STATUS[self.status]
 
     def signals_batch(self) -> dict:
         """:meth:`signals` of every env, stacked (leading axis B)."""

@@ -116,6 +116,51 @@ def observe(b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
         o += 1
 
 
+# rows of the float block of the batched info (each (B, A)); info_s rows: time, contour error
+(
+    INFO_POSITION,
+    INFO_MEASURED,
+    INFO_VELOCITY,
+    INFO_REFERENCE,
+    INFO_ESTIMATE,
+    INFO_TRACKING,
+    INFO_FORCE,
+) = range(7)
+INFO_ROWS = 7
+
+
+@njit(cache=True, inline="always")
+def fill_info(b, T, k, z, ax, eps, est, info):
+    """Env b's entries of the batched ``info`` arrays (physical units), the tuple
+    (info_f (INFO_ROWS, B, A), info_s (2, B) = [time (s), true contour error (m)], info_b (B, A)
+    saturated, info_k (B,) step)."""
+    info_f = info[0]
+    info_s = info[1]
+    info_b = info[2]
+    info_k = info[3]
+    info_k[b] = k[b]
+    info_s[0, b] = k[b] * T
+    info_s[1, b] = eps[b]
+    for i in range(est.shape[1]):
+        x = z[b, i, 0]
+        ref = ax[AX_REF, b, i]
+        info_f[INFO_POSITION, b, i] = x
+        info_f[INFO_MEASURED, b, i] = ax[AX_MEAS, b, i]
+        info_f[INFO_VELOCITY, b, i] = z[b, i, 1]
+        info_f[INFO_REFERENCE, b, i] = ref
+        info_f[INFO_ESTIMATE, b, i] = est[b, i]
+        info_f[INFO_TRACKING, b, i] = ref - x
+        info_f[INFO_FORCE, b, i] = ax[AX_APPLIED, b, i]
+        info_b[b, i] = ax[AX_SAT, b, i] > 0.0
+
+
+@njit(cache=True)
+def fill_info_envs(envs, T, k, z, ax, eps, est, info):
+    """:func:`fill_info` for the envs listed in ``envs`` (e.g. those reset after a step)."""
+    for j in range(envs.shape[0]):
+        fill_info(envs[j], T, k, z, ax, eps, est, info)
+
+
 @njit(cache=True, inline="always")
 def _step_one(
     b,
@@ -146,6 +191,7 @@ def _step_one(
     terminated,
     truncated,
     scratch,
+    info,
 ):
     # one env, one servo period (the body shared by the serial and the parallel driver)
     n_axes = z.shape[1]
@@ -237,6 +283,9 @@ def _step_one(
             obs[b, o] = 0.0
     terminated[b] = status[b] != STATUS_OK
     truncated[b] = (kb >= n_steps - 1) and not terminated[b]
+    # the batched info arrays (empty ones: not wanted), written while the env's data is hot
+    if info[3].shape[0] > 0:
+        fill_info(b, T, k, z, ax, eps, est, info)
 
 
 @njit(cache=True)
@@ -279,6 +328,7 @@ def env_step(
     terminated,
     truncated,
     scratch,
+    info,
 ):
     """Advance every active env by one servo period, in place (serial driver).
 
@@ -287,7 +337,8 @@ def env_step(
     est (B, A); seed (B,) uint64; ref_pav (n, 3, 3) rows [position, velocity, acceleration];
     frame (n, 3, 3) columns [t n b]; obs_tab (n, n_static) float32 (observation_table);
     action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (2 B, ns)
-    (rows 2b, 2b + 1: work space of env b).
+    (rows 2b, 2b + 1: work space of env b); info: the tuple of batched info arrays of
+    :func:`fill_info`, filled for every stepped env (empty arrays: none).
     """
     bad = first_bad_action(action, active)
     if bad >= 0:
@@ -325,6 +376,7 @@ def env_step(
                 terminated,
                 truncated,
                 scratch,
+                info,
             )
     return -1
 
@@ -358,6 +410,7 @@ def env_step_parallel(
     terminated,
     truncated,
     scratch,
+    info,
 ):
     """As :func:`env_step`, with the envs spread over threads (same arithmetic per env, so the
     results are bit-identical to the serial driver)."""
@@ -397,6 +450,7 @@ def env_step_parallel(
                 terminated,
                 truncated,
                 scratch,
+                info,
             )
     return -1
 

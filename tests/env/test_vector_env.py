@@ -35,6 +35,36 @@ def test_vector_env_equals_single_envs(kw):
             assert vterm[i] == term and vtrunc[i] == trunc
             assert np.array_equal(vinfo["position"][i], info["position"])
             assert vinfo["contour_error"][i] == info["contour_error"]
+            for key in ("measured_position", "velocity", "reference", "force", "saturated"):
+                assert np.array_equal(vinfo[key][i], info[key]), key
+            assert vinfo["time"][i] == info["time"] and vinfo["step"][i] == info["step"]
+            np.testing.assert_array_equal(
+                vinfo["contour_error_estimate"][i], info["contour_error_estimate"]
+            )
+            np.testing.assert_array_equal(vinfo["tracking_error"][i], info["tracking_error"])
+
+
+def test_step_info_equals_the_state_after_every_step_including_autoresets():
+    # the kernel writes the batched info while stepping; envs reset after the step get theirs
+    # from the reset state: both must equal a fresh readout of the state
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=3,
+        vectorization_mode="vector_entry_point",
+        case="hsm2-circle-I",
+        abort_contour_error_m=1e-4,
+    )
+    venv.reset(seed=2)
+    actions = np.array([[1.0, 1.0], [0.0, 0.0], [-0.3, 0.2]], dtype=np.float32)
+    resets = 0
+    for _ in range(400):
+        _, _, term, trunc, info = venv.step(actions)
+        expected = venv.core.batch_info()
+        assert set(info) == set(expected)
+        for key, value in expected.items():
+            np.testing.assert_array_equal(info[key], value, err_msg=key)
+        resets += int(info["step"][0] == 0)
+    assert resets >= 2  # env 0 hits the crash guard and is reset, repeatedly
 
 
 def test_vector_env_autoresets_next_step():
