@@ -177,6 +177,7 @@ class EnvCore:
         self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
         self.action = np.zeros((B, A))
         self.scratch = np.zeros((2 * B, ns))
+        self._all_envs = np.arange(B, dtype=np.int64)
         # empty info arrays: the kernel fills none
         self._no_info = (
             np.empty((K.INFO_ROWS, 0, A)),
@@ -329,25 +330,12 @@ class EnvCore:
         }
 
     def batch_info(self) -> dict:
-        """Same keys as :meth:`info`, stacked over the batch (leading axis B); the
-        termination reason is "" while an env runs."""
-        ax = self.ax
-        position = self.z[:, :, 0].copy()
-        reference = ax[K.AX_REF].copy()
-        return {
-            "time": self.k * self.T,
-            "step": self.k.copy(),
-            "position": position,
-            "measured_position": ax[K.AX_MEAS].copy(),
-            "velocity": self.z[:, :, 1].copy(),
-            "reference": reference,
-            "contour_error": self.eps.copy(),
-            "contour_error_estimate": self.est.copy(),
-            "tracking_error": reference - position,
-            "force": ax[K.AX_APPLIED].copy(),
-            "saturated": ax[K.AX_SAT] > 0.0,
-            "termination_reason": self._reasons(),
-        }
+        """Same keys as :meth:`info`, stacked over the batch (leading axis B), read from the
+        current state; the termination reason is "" while an env runs. (The vector env's step
+        gets the same arrays filled by the step kernel itself.)"""
+        arrays = self.new_info_arrays()
+        self.fill_info(arrays, self._all_envs)
+        return self.info_dict(arrays)
 
     def _reasons(self) -> np.ndarray:
         # While every env runs (almost every step) a read-only broadcast of "": no memory at

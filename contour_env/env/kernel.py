@@ -116,6 +116,19 @@ def observe(b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
         o += 1
 
 
+@njit(cache=True, inline="always")
+def _encoder(x, seed_b, step, i, p, cfg, nl):
+    """What the encoder of axis i reads at sample ``step`` for the true position x (m):
+    x plus the optional measurement noise, rounded to the nearest count."""
+    xm = x
+    if cfg[C_NOISE_STD] > 0.0:
+        xm += cfg[C_NOISE_STD] * standard_normal(seed_b, step, i, _STREAM_MEAS)
+    res = nl[p, i, NL_RES]
+    if res > 0.0:
+        xm = np.floor(xm * nl[p, i, NL_INV_RES] + 0.5) * res
+    return xm
+
+
 # rows of the float block of the batched info (each (B, A)); info_s rows: time, contour error
 (
     INFO_POSITION,
@@ -200,7 +213,6 @@ def _step_one(
     n_steps = icfg[I_NSTEPS]
     n_sub = icfg[I_NSUB]
     delay = icfg[I_DELAY] != 0
-    noise_std = cfg[C_NOISE_STD]
     dist_amp = cfg[C_DIST_AMP]
     p = pidx[b]
     kb = k[b]
@@ -247,12 +259,7 @@ def _step_one(
         x = z[b, i, 0]
         if not (math.isfinite(x) and math.isfinite(z[b, i, 1])):
             finite = False
-        xm = x
-        if noise_std > 0.0:
-            xm += noise_std * standard_normal(seed[b], kb, i, _STREAM_MEAS)
-        res = nl[p, i, NL_RES]
-        if res > 0.0:
-            xm = np.floor(xm * nl[p, i, NL_INV_RES] + 0.5) * res
+        xm = _encoder(x, seed[b], kb, i, p, cfg, nl)
         ax[AX_VEL, b, i] = (xm - ax[AX_MEAS, b, i]) * inv_T
         ax[AX_MEAS, b, i] = xm
     for r in range(n_axes):
@@ -455,65 +462,6 @@ def env_step_parallel(
     return -1
 
 
-@njit(cache=True, inline="always")
-def _reset_one(
-    b,
-    cfg,
-    obs_tab,
-    z,
-    ax,
-    k,
-    eps,
-    est,
-    status,
-    seed,
-    ref_pav,
-    frame,
-    seg_type,
-    seg_data,
-    seg_bounds,
-    nl,
-    pidx,
-    stuck0,
-    obs,
-):
-    # env b at rest on the reference start point (k = 0), with its observation
-    n_axes = z.shape[1]
-    p = pidx[b]
-    for i in range(n_axes):
-        for r in range(z.shape[2]):
-            z[b, i, r] = 0.0
-        z[b, i, 0] = ref_pav[0, 0, i]
-        if z.shape[2] >= 4:
-            z[b, i, 2] = ref_pav[0, 0, i]  # motor side of the two-mass model
-        ax[AX_STUCK, b, i] = stuck0[i]
-        ax[AX_UPEND, b, i] = 0.0
-        ax[AX_PREV, b, i] = 0.0
-        ax[AX_APPLIED, b, i] = 0.0
-        ax[AX_SAT, b, i] = 0.0
-        ax[AX_REF, b, i] = ref_pav[0, 0, i]
-        # the plant's disturbance is not synchronised with the program: its phase is drawn
-        # per episode (from the episode seed) unless the config fixes it
-        toff = 0.0
-        if cfg[C_DIST_PHASE_RANDOM] > 0.0 and nl[p, i, NL_FD] > 0.0:
-            toff = uniform01(seed[b], 0, i, _STREAM_PHASE) / nl[p, i, NL_FD]
-        ax[AX_TOFF, b, i] = toff
-        xm = z[b, i, 0]
-        if cfg[C_NOISE_STD] > 0.0:
-            xm += cfg[C_NOISE_STD] * standard_normal(seed[b], 0, i, _STREAM_MEAS)
-        res = nl[p, i, NL_RES]
-        if res > 0.0:
-            xm = np.floor(xm * nl[p, i, NL_INV_RES] + 0.5) * res
-        ax[AX_MEAS, b, i] = xm
-        ax[AX_VEL, b, i] = 0.0
-        est[b, i] = ref_pav[0, 0, i] - z[b, i, 0]
-    k[b] = 0
-    status[b] = STATUS_OK
-    pz = z[b, 2, 0] if n_axes == 3 else 0.0
-    eps[b] = path_distance(seg_type, seg_data, seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
-    observe(b, 0, cfg, obs_tab, ax, ref_pav, frame, obs)
-
-
 @njit(cache=True)
 def env_reset(
     envs,
@@ -543,27 +491,34 @@ def env_reset(
     (k = 0), with its observation, zero reward and no done flags (seeds already in ``seed``)."""
     for j in range(envs.shape[0]):
         b = envs[j]
-        _reset_one(
-            b,
-            cfg,
-            obs_tab,
-            z,
-            ax,
-            k,
-            eps,
-            est,
-            status,
-            seed,
-            ref_pav,
-            frame,
-            seg_type,
-            seg_data,
-            seg_bounds,
-            nl,
-            pidx,
-            stuck0,
-            obs,
-        )
+        n_axes = z.shape[1]
+        p = pidx[b]
+        for i in range(n_axes):
+            for r in range(z.shape[2]):
+                z[b, i, r] = 0.0
+            z[b, i, 0] = ref_pav[0, 0, i]
+            if z.shape[2] >= 4:
+                z[b, i, 2] = ref_pav[0, 0, i]  # motor side of the two-mass model
+            ax[AX_STUCK, b, i] = stuck0[i]
+            ax[AX_UPEND, b, i] = 0.0
+            ax[AX_PREV, b, i] = 0.0
+            ax[AX_APPLIED, b, i] = 0.0
+            ax[AX_SAT, b, i] = 0.0
+            ax[AX_REF, b, i] = ref_pav[0, 0, i]
+            # the plant's disturbance is not synchronised with the program: its phase is drawn
+            # per episode (from the episode seed) unless the config fixes it
+            toff = 0.0
+            if cfg[C_DIST_PHASE_RANDOM] > 0.0 and nl[p, i, NL_FD] > 0.0:
+                toff = uniform01(seed[b], 0, i, _STREAM_PHASE) / nl[p, i, NL_FD]
+            ax[AX_TOFF, b, i] = toff
+            ax[AX_MEAS, b, i] = _encoder(z[b, i, 0], seed[b], 0, i, p, cfg, nl)
+            ax[AX_VEL, b, i] = 0.0
+            est[b, i] = ref_pav[0, 0, i] - z[b, i, 0]
+        k[b] = 0
+        status[b] = STATUS_OK
+        pz = z[b, 2, 0] if n_axes == 3 else 0.0
+        eps[b] = path_distance(seg_type, seg_data, seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
+        observe(b, 0, cfg, obs_tab, ax, ref_pav, frame, obs)
         reward[b] = 0.0
         terminated[b] = False
         truncated[b] = False
