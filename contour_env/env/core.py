@@ -178,6 +178,12 @@ class EnvCore:
         self.action = np.zeros((B, A))
         self.scratch = np.zeros((2 * B, ns))
         self._all_envs = np.arange(B, dtype=np.int64)
+        self._info_spec = [
+            ((K.INFO_ROWS, B, A), np.float64),
+            ((2, B), np.float64),
+            ((B, A), np.bool_),
+            ((B,), np.int64),
+        ]
         # empty info arrays: the kernel fills none
         self._no_info = (
             np.empty((K.INFO_ROWS, 0, A)),
@@ -193,9 +199,30 @@ class EnvCore:
         """Reset env b with the episode seed ``noise_seed`` (any integer, taken mod 2⁶⁴)."""
         self.reset_envs(np.array([b], dtype=np.int64), [noise_seed])
 
+    def _env_indices(self, envs) -> np.ndarray:
+        # the compiled kernels index without bounds checks: validate here
+        envs = np.ascontiguousarray(envs, dtype=np.int64).reshape(-1)
+        if envs.size and (envs.min() < 0 or envs.max() >= self.n_envs):
+            raise ValueError(f"envs: indices must be in [0, {self.n_envs}), got {envs.tolist()}")
+        return envs
+
+    def _check_info_arrays(self, info_arrays) -> None:
+        expected = self._info_spec
+        got = [(getattr(a, "shape", None), getattr(a, "dtype", None)) for a in info_arrays]
+        if got != expected:
+            raise ValueError(
+                f"info_arrays: expected the arrays of new_info_arrays(), (shape, dtype) "
+                f"{expected}, "
+                f"got {got}"
+            )
+
     def reset_envs(self, envs, noise_seeds) -> None:
-        """Reset the envs ``envs`` (indices) with one episode seed each, in one compiled call."""
-        envs = np.ascontiguousarray(envs, dtype=np.int64)
+        """Reset the envs ``envs`` (indices) with one episode seed each (any integers, taken
+        mod 2⁶⁴), in one compiled call."""
+        envs = self._env_indices(envs)
+        noise_seeds = list(noise_seeds)
+        if len(noise_seeds) != envs.size:
+            raise ValueError(f"noise_seeds: one per env ({envs.size}), got {len(noise_seeds)}")
         self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
         p = self.packed
         K.env_reset(
@@ -236,8 +263,9 @@ class EnvCore:
     def fill_info(self, info_arrays: tuple, envs) -> None:
         """Fill the info arrays of the envs ``envs`` from their current state (e.g. after a
         reset that followed the step)."""
+        self._check_info_arrays(info_arrays)
         K.fill_info_envs(
-            np.ascontiguousarray(envs, dtype=np.int64),
+            self._env_indices(envs),
             self.T,
             self.k,
             self.z,
@@ -272,6 +300,8 @@ class EnvCore:
         p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
+        else:
+            self._check_info_arrays(info_arrays)
         bad = self._step_kernel(
             self.cfg,
             self.icfg,

@@ -97,3 +97,24 @@ def test_vector_env_rejects_bad_actions():
         venv.step(a)
     with pytest.raises(ValueError, match="actions: expected shape"):
         venv.step(np.zeros((2, 2)))
+
+
+def test_core_batch_calls_reject_bad_indices_seeds_and_info_arrays():
+    from contour_env.env.core import make_core
+
+    core = make_core("hsm2-circle-I", n_envs=3)
+    with pytest.raises(ValueError, match=r"envs: indices must be in \[0, 3\)"):
+        core.reset_envs([0, 3], [1, 2])
+    with pytest.raises(ValueError, match="noise_seeds: one per env"):
+        core.reset_envs([0, 1], [1])
+    good = core.new_info_arrays()
+    with pytest.raises(ValueError, match="info_arrays"):
+        core.step(np.zeros((3, 2)), np.ones(3, bool), good[:3])
+    wrong = (np.empty((7, 2, 2)),) + good[1:]
+    with pytest.raises(ValueError, match="info_arrays"):
+        core.fill_info(wrong, [0])
+    with pytest.raises(ValueError, match="envs: indices"):
+        core.fill_info(good, [-1])
+    core.reset_envs([0, 1, 2], [5, 6, 7])
+    core.step(np.zeros((3, 2)), np.ones(3, bool), good)
+    np.testing.assert_array_equal(core.info_dict(good)["position"], core.batch_info()["position"])
