@@ -53,10 +53,26 @@ def test_gcode_without_plant_is_a_clean_error():
 def test_bench_small(tmp_path, monkeypatch):
     from contour_env import bench
 
-    res = bench.run_bench("hsm2-circle-III", seconds=0.05, sizes=(1, 8))
+    res = bench.run_bench("hsm2-circle-III", seconds=0.05, sizes=(1, 8), repeats=3)
     assert res["single_env_steps_per_s"] > 0
     assert [r["num_envs"] for r in res["vector"]] == [1, 8]
     assert "CartPole" in bench.format_bench(res)
+    # each figure is the median of its alternating windows, all of them kept
+    for row in res["vector"]:
+        runs = row["env_steps_per_s_runs"]
+        assert len(runs) == 3 and len(row["cartpole_env_steps_per_s_runs"]) == 3
+        assert row["env_steps_per_s"] == sorted(runs)[1]
+    assert len(res["single_env_steps_per_s_runs"]) == 3
+
+
+@pytest.mark.parametrize(
+    "kwargs, word", [({"repeats": 0}, "repeats"), ({"seconds": 0.0}, "seconds")]
+)
+def test_bench_rejects_bad_settings(kwargs, word):
+    from contour_env import bench
+
+    with pytest.raises(ValueError, match=word):
+        bench.run_bench("hsm2-circle-III", sizes=(1,), **kwargs)
 
 
 def test_run_with_pd_controller(tmp_path):
