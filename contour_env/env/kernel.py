@@ -176,6 +176,7 @@ def fill_info_envs(envs, T, k, z, ax, eps, est, info):
 
 @njit(cache=True, inline="always")
 def _step_one(
+    n_axes,
     b,
     cfg,
     icfg,
@@ -206,8 +207,8 @@ def _step_one(
     scratch,
     info,
 ):
-    # one env, one servo period (the body shared by the serial and the parallel driver)
-    n_axes = z.shape[1]
+    # one env, one servo period (the body shared by the serial and the parallel driver);
+    # n_axes = z.shape[1], passed in so that a driver can give it as a literal
     T = cfg[C_T]
     inv_T = cfg[C_INV_T]
     n_steps = icfg[I_NSTEPS]
@@ -355,6 +356,7 @@ def env_step(
     for b in range(z.shape[0]):
         if active[b]:
             _step_one(
+                z.shape[1],
                 b,
                 cfg,
                 icfg,
@@ -428,37 +430,74 @@ def env_step_parallel(
     z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
     for b in prange(z.shape[0]):
         if active[b]:
-            _step_one(
-                b,
-                cfg,
-                icfg,
-                obs_tab,
-                z,
-                z2,
-                ax,
-                k,
-                eps,
-                est,
-                status,
-                seed,
-                ref_pav,
-                frame,
-                seg_type,
-                seg_data,
-                seg_bounds,
-                mat_T,
-                mat_h,
-                cont,
-                nl,
-                pidx,
-                action,
-                obs,
-                reward,
-                terminated,
-                truncated,
-                scratch,
-                info,
-            )
+            # two axes as a literal: the compiler unrolls the per-axis loops and interleaves
+            # the two axes (about 1.1-1.2x faster); other axis counts take the generic body
+            if z.shape[1] == 2:
+                _step_one(
+                    2,
+                    b,
+                    cfg,
+                    icfg,
+                    obs_tab,
+                    z,
+                    z2,
+                    ax,
+                    k,
+                    eps,
+                    est,
+                    status,
+                    seed,
+                    ref_pav,
+                    frame,
+                    seg_type,
+                    seg_data,
+                    seg_bounds,
+                    mat_T,
+                    mat_h,
+                    cont,
+                    nl,
+                    pidx,
+                    action,
+                    obs,
+                    reward,
+                    terminated,
+                    truncated,
+                    scratch,
+                    info,
+                )
+            else:
+                _step_one(
+                    z.shape[1],
+                    b,
+                    cfg,
+                    icfg,
+                    obs_tab,
+                    z,
+                    z2,
+                    ax,
+                    k,
+                    eps,
+                    est,
+                    status,
+                    seed,
+                    ref_pav,
+                    frame,
+                    seg_type,
+                    seg_data,
+                    seg_bounds,
+                    mat_T,
+                    mat_h,
+                    cont,
+                    nl,
+                    pidx,
+                    action,
+                    obs,
+                    reward,
+                    terminated,
+                    truncated,
+                    scratch,
+                    info,
+                )
     return -1
 
 
