@@ -156,7 +156,9 @@ class ContouringEnv(gym.Env):
                 )
         self._action[0] = a
         core = self.core
-        core.step(self._action, self._active)
+        # the kernel fills fresh info arrays as it steps (cheaper than copying afterwards)
+        info = core.new_info_arrays()
+        core.step(self._action, self._active, info)
         if self.render_mode:
             self._record()
         return (
@@ -164,7 +166,7 @@ class ContouringEnv(gym.Env):
             float(core.reward[0]),
             bool(core.terminated[0]),
             bool(core.truncated[0]),
-            core.info(0),
+            core.info_of(info, 0),
         )
 
     # --- rendering -------------------------------------------------------------------------

@@ -178,6 +178,7 @@ class EnvCore:
         self.action = np.zeros((B, A))
         self.scratch = np.zeros((2 * B, ns))
         self._all_envs = np.arange(B, dtype=np.int64)
+        self._fresh_info = None
         # read-only, so one object serves every step (np.broadcast_to costs ~8 µs a call)
         self._no_reasons = np.broadcast_to(_REASON_BY_STATUS[:1], (B,))
         self._info_spec = [
@@ -255,12 +256,15 @@ class EnvCore:
     def new_info_arrays(self) -> tuple:
         """Fresh (uninitialised) arrays for :meth:`step` to fill with the batched info."""
         B, A = self.n_envs, self.dim
-        return (
+        arrays = (
             np.empty((K.INFO_ROWS, B, A)),
             np.empty((2, B)),
             np.empty((B, A), dtype=bool),
             np.empty(B, dtype=np.int64),
         )
+        # made here with the right shapes: step() need not check them again
+        self._fresh_info = arrays
+        return arrays
 
     def fill_info(self, info_arrays: tuple, envs) -> None:
         """Fill the info arrays of the envs ``envs`` from their current state (e.g. after a
@@ -276,6 +280,25 @@ class EnvCore:
             self.est,
             info_arrays,
         )
+
+    def info_of(self, info_arrays: tuple, b: int) -> dict:
+        """The ``info`` of env b (keys and units of :meth:`info`) from filled info arrays: the
+        same values, as views of those (fresh) arrays instead of copies of the state."""
+        f, sc, sat, step = info_arrays
+        return {
+            "time": float(sc[0, b]),
+            "step": int(step[b]),
+            "position": f[K.INFO_POSITION, b],
+            "measured_position": f[K.INFO_MEASURED, b],
+            "velocity": f[K.INFO_VELOCITY, b],
+            "reference": f[K.INFO_REFERENCE, b],
+            "contour_error": float(sc[1, b]),
+            "contour_error_estimate": f[K.INFO_ESTIMATE, b],
+            "tracking_error": f[K.INFO_TRACKING, b],
+            "force": f[K.INFO_FORCE, b],
+            "saturated": sat[b],
+            "termination_reason": TERMINATION_REASONS.get(int(self.status[b])),
+        }
 
     def info_dict(self, info_arrays: tuple) -> dict:
         """The batched ``info`` (keys of :meth:`info`, leading axis B) from filled arrays."""
@@ -302,7 +325,7 @@ class EnvCore:
         p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
-        else:
+        elif info_arrays is not self._fresh_info:
             self._check_info_arrays(info_arrays)
         bad = self._step_kernel(
             self.cfg,

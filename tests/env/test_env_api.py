@@ -54,6 +54,24 @@ def test_info_has_every_documented_key_in_physical_units():
     assert info["termination_reason"] is None
 
 
+def test_step_info_equals_a_readout_of_the_state_every_step():
+    # the kernel fills the step's info while it steps; it must equal core.info, a readout of
+    # the state after the step, key by key and in type, up to the crash-guard termination
+    env = gym.make(ENV_ID, case="hsm2-circle-I", abort_contour_error_m=1e-4)
+    env.reset(seed=1)
+    core = env.unwrapped.core
+    for _ in range(400):
+        *_, term, trunc, info = env.step(np.array([1.0, -0.5], dtype=np.float32))
+        expected = core.info(0)
+        assert set(info) == set(expected)
+        for key, value in expected.items():
+            assert type(info[key]) is type(value), key
+            np.testing.assert_array_equal(info[key], value, err_msg=key)
+        if term:
+            break
+    assert term and info["termination_reason"] == "contour_error_limit"
+
+
 def _rollout(env, seed, n=300):
     rng = np.random.default_rng(123)
     obs, _ = env.reset(seed=seed)
