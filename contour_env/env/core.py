@@ -210,6 +210,8 @@ class EnvCore:
         return envs
 
     def _check_info_arrays(self, info_arrays) -> None:
+        if info_arrays is self._fresh_info:  # made by new_info_arrays: right by construction
+            return
         expected = self._info_spec
         got = [(getattr(a, "shape", None), getattr(a, "dtype", None)) for a in info_arrays]
         if got != expected:
@@ -262,7 +264,7 @@ class EnvCore:
             np.empty((B, A), dtype=bool),
             np.empty(B, dtype=np.int64),
         )
-        # made here with the right shapes: step() need not check them again
+        # made here with the right shapes: step() and fill_info() need not check them again
         self._fresh_info = arrays
         return arrays
 
@@ -283,7 +285,9 @@ class EnvCore:
 
     def info_of(self, info_arrays: tuple, b: int) -> dict:
         """The ``info`` of env b (keys and units of :meth:`info`) from filled info arrays: the
-        same values, as views of those (fresh) arrays instead of copies of the state."""
+        same values, as views of those (fresh) arrays instead of copies of the state. (Written
+        out like info_dict rather than shared through a key table: the single env's step is
+        a few per cent faster with the literal dict.)"""
         f, sc, sat, step = info_arrays
         return {
             "time": float(sc[0, b]),
@@ -325,7 +329,7 @@ class EnvCore:
         p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
-        elif info_arrays is not self._fresh_info:
+        else:
             self._check_info_arrays(info_arrays)
         bad = self._step_kernel(
             self.cfg,
