@@ -122,6 +122,44 @@ def _advance(Z, zr, O, orow, mat, p, i, u, w0, w1, ns):
 
 
 @njit(cache=True, inline="always")
+def _add_gb_n(S, s, mat, p, i, dw, ns):
+    for r in range(ns):
+        S[s, r] += mat[p, i, r, ns + 2] * dw
+
+
+@njit(cache=True, inline="always")
+def _add_gb(S, s, mat, p, i, dw, ns):
+    # S[s] += Gb dw (Gb: last column of the packed matrices), with a literal size (unrolled)
+    if ns == 2:
+        _add_gb_n(S, s, mat, p, i, dw, 2)
+    elif ns == 3:
+        _add_gb_n(S, s, mat, p, i, dw, 3)
+    elif ns == 4:
+        _add_gb_n(S, s, mat, p, i, dw, 4)
+    else:
+        _add_gb_n(S, s, mat, p, i, dw, 5)
+
+
+@njit(cache=True, inline="always")
+def _copy_row_n(S, s, Z, zr, ns):
+    for r in range(ns):
+        Z[zr, r] = S[s, r]
+
+
+@njit(cache=True, inline="always")
+def _copy_row(S, s, Z, zr, ns):
+    # Z[zr] = S[s], with a literal size (unrolled)
+    if ns == 2:
+        _copy_row_n(S, s, Z, zr, 2)
+    elif ns == 3:
+        _copy_row_n(S, s, Z, zr, 3)
+    elif ns == 4:
+        _copy_row_n(S, s, Z, zr, 4)
+    else:
+        _copy_row_n(S, s, Z, zr, 5)
+
+
+@njit(cache=True, inline="always")
 def _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns):
     # Force on the moving mass excluding friction: m * (A[1,:] z + B_u[1] u + B_w[1] wnf).
     acc = cont[p, i, ns] * u + cont[p, i, ns + 1] * wnf
@@ -161,9 +199,7 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
         if w1 != w0:  # equal when w does not depend on the state (e.g. pure Coulomb at speed)
             # the map is linear in w1: add the end-of-period term's change, Gb (w1 − w0),
             # instead of a second full mat-vec
-            dw = w1 - w0
-            for r in range(ns):
-                S[s, r] += mat_T[p, i, r, ns + 2] * dw
+            _add_gb(S, s, mat_T, p, i, w1 - w0, ns)
         v2 = S[s, 1]
         # accepted unless the velocity changes sign (reversal: substeps with stick–slip) or
         # crosses the Stribeck region in large steps (friction then varies too fast for the
@@ -187,8 +223,7 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
                         n_use = d
                         level = d - 1
         if accept:
-            for r in range(ns):
-                Z[zr, r] = S[s, r]
+            _copy_row(S, s, Z, zr, ns)
             return 0.0
     return _axis_step_slow(
         Z, zr, stuck, u, t0, T, n_use, level, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
