@@ -84,6 +84,14 @@ def observation_table(cfg, preview, ref_pav, frame, scal, n_steps, dim, out):
 
 
 @njit(cache=True, inline="always")
+def _copy_table_row(obs, b, o, obs_tab, kk, n):
+    # obs[b, o : o + n] = obs_tab[kk, :n]; (indexed by the range variable itself: with o + j
+    # numba adds a negative-index check and LLVM turned the copy into a vector scatter)
+    for jj in range(o, o + n):
+        obs[b, jj] = obs_tab[kk, jj - o]
+
+
+@njit(cache=True, inline="always")
 def observe(dim, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
     """Fill obs[b] for reference index kk from the measured state (layout: see ContouringEnv);
     the reference-only fields come from ``obs_tab`` (:func:`observation_table`). ``dim`` is
@@ -107,11 +115,13 @@ def observe(dim, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
             acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[AX_VEL, b, c])
         obs[b, o] = min(max(acc * inv_verr, -clip), clip)
         o += 1
-    # (indexed by the range variable itself: with o + j numba adds a negative-index check
-    # and LLVM turned the copy into a vector scatter)
-    for jj in range(o, o + obs_tab.shape[1]):
-        obs[b, jj] = obs_tab[kk, jj - o]
-    o += obs_tab.shape[1]
+    n_tab = obs_tab.shape[1]
+    if n_tab == 3 + 3 * dim:
+        # the default three preview times: a literal length, so the copy is unrolled
+        _copy_table_row(obs, b, o, obs_tab, kk, 3 + 3 * dim)
+    else:
+        _copy_table_row(obs, b, o, obs_tab, kk, n_tab)
+    o += n_tab
     for r in range(dim):
         obs[b, o] = ax[AX_PREV, b, r]
         o += 1
