@@ -113,7 +113,6 @@ class ContouringEnv(gym.Env):
         clip = self.core.config.obs_clip
         self.observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,), dtype=np.float32)
         self._action = np.zeros((1, n))
-        self._active = np.ones(1, dtype=bool)
         self._history: list[tuple] = []
 
     # properties users script against
@@ -158,7 +157,7 @@ class ContouringEnv(gym.Env):
         core = self.core
         # the kernel fills fresh info arrays as it steps (cheaper than copying afterwards)
         info = core.new_info_arrays()
-        core.step(self._action, self._active, info)
+        core.step(self._action, core.all_active, info)
         if self.render_mode:
             self._record()
         return (

@@ -172,7 +172,10 @@ class EnvCore:
         self.reward = np.zeros(B)
         self.terminated = np.zeros(B, dtype=bool)
         self.truncated = np.zeros(B, dtype=bool)
-        self.active = np.ones(B, dtype=bool)
+        # all True, never written: pass this very array to step() to step every env (the core
+        # then knows, without a scan, that no env was left out)
+        self.all_active = np.ones(B, dtype=bool)
+        self._status_clear = False
         # stuck at rest where there is static friction (identical structure across the batch)
         self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
         self.action = np.zeros((B, A))
@@ -322,16 +325,34 @@ class EnvCore:
             "termination_reason": self._reasons(),
         }
 
-    def step(self, action: np.ndarray, active: np.ndarray, info_arrays=None) -> None:
+    def step(
+        self, action: np.ndarray, active: np.ndarray, info_arrays=None, fresh_outputs=False
+    ) -> int:
         """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf.
+        Returns the number of stepped envs whose episode has now ended (terminated or
+        truncated).
+
         With ``info_arrays`` (:meth:`new_info_arrays`) the kernel also fills the batched info
-        of every stepped env, while its data is in cache."""
+        of every stepped env, while its data is in cache. With ``fresh_outputs`` the kernel
+        writes ``obs``, ``reward``, ``terminated`` and ``truncated`` into new arrays, which
+        then replace the old ones (rows of inactive envs carried over): a caller may hand
+        those out without copying them, since the core never writes an array again once it
+        has been replaced (every later step or :meth:`renew_outputs` makes new ones first)."""
         p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
         else:
             self._check_info_arrays(info_arrays)
-        bad = self._step_kernel(
+        if fresh_outputs:
+            outputs = (
+                np.empty_like(self.obs),
+                np.empty_like(self.reward),
+                np.empty_like(self.terminated),
+                np.empty_like(self.truncated),
+            )
+        else:
+            outputs = (self.obs, self.reward, self.terminated, self.truncated)
+        bad, n_terminated, n_ended = self._step_kernel(
             self.cfg,
             self.icfg,
             self.obs_tab,
@@ -354,10 +375,10 @@ class EnvCore:
             p.pidx,
             action,
             active,
-            self.obs,
-            self.reward,
-            self.terminated,
-            self.truncated,
+            outputs[0],
+            outputs[1],
+            outputs[2],
+            outputs[3],
             self.scratch,
             info_arrays,
         )
@@ -366,6 +387,29 @@ class EnvCore:
                 f"action: must be finite, got {action[bad].tolist()} (env {bad}); the action is "
                 "the per-axis command in [-1, 1] of the force limit"
             )
+        all_active = active is self.all_active
+        if fresh_outputs:
+            self._adopt_outputs(outputs, None if all_active else ~np.asarray(active, bool))
+        # every status is known to be "running" only if every env was stepped and none ended
+        self._status_clear = all_active and n_terminated == 0
+        return n_ended
+
+    def _adopt_outputs(self, outputs, carry) -> None:
+        # replace obs, reward, terminated, truncated by ``outputs``, copying the rows ``carry``
+        # (a boolean mask; None: none) from the arrays they replace
+        if carry is not None and carry.any():
+            olds = (self.obs, self.reward, self.terminated, self.truncated)
+            for new, old in zip(outputs, olds, strict=True):
+                new[carry] = old[carry]
+        self.obs, self.reward, self.terminated, self.truncated = outputs
+
+    def renew_outputs(self) -> None:
+        """Give the core new ``obs``, ``reward``, ``terminated`` and ``truncated`` arrays (copies
+        of the current ones), so that arrays handed out earlier are never written again."""
+        self._adopt_outputs(
+            (self.obs.copy(), self.reward.copy(), self.terminated.copy(), self.truncated.copy()),
+            None,
+        )
 
     # --- readouts (physical units) ---------------------------------------------------------
     def info(self, b: int) -> dict:
@@ -399,8 +443,9 @@ class EnvCore:
     def _reasons(self) -> np.ndarray:
         # While every env runs (almost every step) a read-only broadcast of "": no memory at
         # all (a (B,) array of 19-character strings is the size of five float arrays); a real
-        # array once one ended.
-        if not self.status.any():
+        # array once one ended. (_status_clear: the last step stepped every env and none
+        # terminated, so the status array need not be scanned.)
+        if self._status_clear or not self.status.any():
             return self._no_reasons
         return _REASON_BY_STATUS[self.status]
 

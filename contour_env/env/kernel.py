@@ -352,9 +352,12 @@ def env_step(
 ):
     """Advance every active env by one servo period, in place (serial driver).
 
-    Returns -1, or the index of the first env whose action is not finite (nothing is changed
-    then). Shapes: z (B, A, ns); ax (AX_SIZE, B, A); k, status (B,) int64; eps (B,);
-    est (B, A); seed (B,) uint64; ref_pav (n, 3, 3) rows [position, velocity, acceleration];
+    Returns (bad, n_terminated, n_ended): bad is -1, or the index of the first env whose action
+    is not finite (nothing is changed then); n_terminated and n_ended count the stepped envs
+    now terminated, and terminated or truncated.
+
+    Shapes: z (B, A, ns); ax (AX_SIZE, B, A); k, status (B,) int64; eps (B,); est (B, A);
+    seed (B,) uint64; ref_pav (n, 3, 3) rows [position, velocity, acceleration];
     frame (n, 3, 3) columns [t n b]; obs_tab (n, n_static) float32 (observation_table);
     action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (2 B, ns)
     (rows 2b, 2b + 1: work space of env b); info: the tuple of batched info arrays of
@@ -362,9 +365,11 @@ def env_step(
     """
     bad = first_bad_action(action, active)
     if bad >= 0:
-        return bad
+        return bad, 0, 0
     # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
     z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    n_terminated = 0
+    n_ended = 0
     for b in range(z.shape[0]):
         if active[b]:
             _step_one(
@@ -399,7 +404,9 @@ def env_step(
                 scratch,
                 info,
             )
-    return -1
+            n_terminated += 1 if terminated[b] else 0
+            n_ended += 1 if terminated[b] or truncated[b] else 0
+    return -1, n_terminated, n_ended
 
 
 @njit(cache=True, parallel=True)
@@ -437,9 +444,11 @@ def env_step_parallel(
     results are bit-identical to the serial driver)."""
     bad = first_bad_action(action, active)
     if bad >= 0:
-        return bad
+        return bad, 0, 0
     # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
     z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    n_terminated = 0
+    n_ended = 0
     for b in prange(z.shape[0]):
         if active[b]:
             # two axes as a literal: the compiler unrolls the per-axis loops and interleaves
@@ -510,7 +519,9 @@ def env_step_parallel(
                     scratch,
                     info,
                 )
-    return -1
+            n_terminated += 1 if terminated[b] else 0
+            n_ended += 1 if terminated[b] or truncated[b] else 0
+    return -1, n_terminated, n_ended
 
 
 @njit(cache=True)

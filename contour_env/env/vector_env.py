@@ -5,6 +5,9 @@ vectorization_mode="vector_entry_point", ...)``. Autoreset follows Gymnasium's d
 NEXT_STEP mode: the step after an env's episode ends resets it (its action is ignored, reward
 0, not done). ``reset(seed=s)`` seeds env i with s + i, so env i replays exactly what a single
 env reset with seed s + i does (noise and random disturbances are keyed by that seed).
+
+The arrays returned by ``reset`` and ``step`` are new at every call and never written again
+by the env, so they may be kept without copying.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ class ContouringVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.render_mode = None
-        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        # envs whose episode ended at the last step (reset at this one); None: no env
+        self._needs_reset = None
         self._rng = np.random.default_rng()
 
     @property
@@ -53,9 +57,11 @@ class ContouringVectorEnv(VectorEnv):
             self._rng = np.random.default_rng(base)
         else:
             raise ValueError("seed: the vector env takes one integer (env i gets seed + i)")
+        # new output arrays first: the ones handed out by the last step stay as they were
+        self.core.renew_outputs()
         self.core.reset_envs(np.arange(self.num_envs), [base + b for b in range(self.num_envs)])
-        self._needs_reset[:] = False
-        return self.core.obs.copy(), self.core.batch_info()
+        self._needs_reset = None
+        return self.core.obs, self.core.batch_info()
 
     def step(self, actions):
         core = self.core
@@ -64,22 +70,18 @@ class ContouringVectorEnv(VectorEnv):
             raise ValueError(
                 f"actions: expected shape ({self.num_envs}, {core.dim}), got {a.shape}"
             )
-        resetting = self._needs_reset.copy()
-        active = ~resetting
-        # the kernel writes the info of every env it steps (cheaper than copying it afterwards:
-        # the data is still in the stepping thread's cache)
+        resetting = self._needs_reset
+        active = core.all_active if resetting is None else ~resetting
+        # The kernel writes the info of every env it steps, and the observations, rewards and
+        # done flags into new arrays (fresh_outputs): cheaper than copying them afterwards,
+        # while the data is still in the stepping threads' caches. Those arrays are returned
+        # as they are; the core never writes them again.
         info = core.new_info_arrays()
-        core.step(np.ascontiguousarray(a), active, info)
-        if resetting.any():
+        n_ended = core.step(np.ascontiguousarray(a), active, info, fresh_outputs=True)
+        if resetting is not None:
             envs = np.flatnonzero(resetting)
             # one draw per env in index order (the same seeds as drawing them one by one)
             core.reset_envs(envs, self._rng.integers(0, 2**62, size=len(envs)).tolist())
             core.fill_info(info, envs)
-        self._needs_reset = core.terminated | core.truncated
-        return (
-            core.obs.copy(),
-            core.reward.copy(),
-            core.terminated.copy(),
-            core.truncated.copy(),
-            core.info_dict(info),
-        )
+        self._needs_reset = core.terminated | core.truncated if n_ended else None
+        return core.obs, core.reward, core.terminated, core.truncated, core.info_dict(info)

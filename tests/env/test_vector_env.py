@@ -118,3 +118,72 @@ def test_core_batch_calls_reject_bad_indices_seeds_and_info_arrays():
     core.reset_envs([0, 1, 2], [5, 6, 7])
     core.step(np.zeros((3, 2)), np.ones(3, bool), good)
     np.testing.assert_array_equal(core.info_dict(good)["position"], core.batch_info()["position"])
+
+
+def test_returned_arrays_are_never_written_again():
+    # the vector env hands out the kernel's output arrays without copying them: later steps,
+    # autoresets and reset() must leave every array it returned as it was
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        case="hsm2-circle-I",
+        abort_contour_error_m=1e-4,
+    )
+    kept = [venv.reset(seed=3)[0]]
+    copies = [kept[0].copy()]
+    actions = np.array([[1.0, 1.0], [0.0, 0.0]], dtype=np.float32)
+    ended = 0
+    for _ in range(300):
+        out = venv.step(actions)
+        kept.extend(out[:4])
+        copies.extend(x.copy() for x in out[:4])
+        ended += int(out[2][0])
+    kept.append(venv.reset(seed=4)[0])
+    copies.append(kept[-1].copy())
+    for _ in range(50):
+        venv.step(actions)
+    venv.reset(seed=5)
+    assert ended >= 1  # env 0 hit the crash guard, so autoresets happened in between
+    for k, c in zip(kept, copies, strict=True):
+        np.testing.assert_array_equal(k, c)
+
+
+def test_core_step_fresh_outputs_equals_stepping_in_place():
+    from contour_env.env.core import make_core
+
+    rng = np.random.default_rng(8)
+    a, b = (make_core("hsm2-circle-II", n_envs=4) for _ in range(2))
+    for core in (a, b):
+        core.reset_envs(range(4), [1, 2, 3, 4])
+    for t in range(60):
+        action = rng.uniform(-0.2, 0.2, (4, 2))
+        # every env, then a partial mask: inactive rows must be carried into the new arrays
+        active = a.all_active if t % 3 else np.array([True, False, True, False])
+        old_obs = b.obs.copy()
+        held = b.obs
+        n_a = a.step(action, active if active is a.all_active else active.copy())
+        n_b = b.step(action, b.all_active if active is a.all_active else active, None, True)
+        assert n_a == n_b == int(np.count_nonzero(a.terminated | a.truncated))
+        assert b.obs is not held
+        np.testing.assert_array_equal(held, old_obs)  # the replaced array is left alone
+        for key in ("obs", "reward", "terminated", "truncated", "z"):
+            np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
+
+
+def test_termination_reason_kept_for_an_env_left_out_of_a_step():
+    # the "no env ended" shortcut of the reasons applies only when every env was stepped
+    from contour_env.env.core import make_core
+
+    core = make_core("hsm2-circle-I", n_envs=3, abort_contour_error_m=1e-4)
+    core.reset_envs(range(3), [0, 1, 2])
+    push = np.array([[1.0, 1.0], [0.0, 0.0], [0.0, 0.0]])
+    for _ in range(2000):
+        core.step(push, core.all_active)
+        if core.terminated[0]:
+            break
+    assert core.terminated[0]
+    info = core.new_info_arrays()
+    core.step(np.zeros((3, 2)), np.array([False, True, True]), info)
+    reasons = core.info_dict(info)["termination_reason"]
+    assert reasons[0] == "contour_error_limit" and reasons[1] == "" and reasons[2] == ""
