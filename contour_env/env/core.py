@@ -336,8 +336,9 @@ class EnvCore:
         of every stepped env, while its data is in cache. With ``fresh_outputs`` the kernel
         writes ``obs``, ``reward``, ``terminated`` and ``truncated`` into new arrays, which
         then replace the old ones (rows of inactive envs carried over): a caller may hand
-        those out without copying them, since the core never writes an array again once it
-        has been replaced (every later step or :meth:`renew_outputs` makes new ones first)."""
+        those out without copying them as long as it makes every later write go to new arrays
+        too (steps with ``fresh_outputs``, :meth:`renew_outputs` before a reset), as the
+        vectorised env does."""
         p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
