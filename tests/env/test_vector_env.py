@@ -8,6 +8,17 @@ import contour_env  # noqa: F401
 from contour_env import ENV_ID
 
 
+def _tight_guard_venv(n):
+    # hsm2-circle-I with a 0.1 mm crash guard: a full-force action ends an episode quickly
+    return gym.make_vec(
+        ENV_ID,
+        num_envs=n,
+        vectorization_mode="vector_entry_point",
+        case="hsm2-circle-I",
+        abort_contour_error_m=1e-4,
+    )
+
+
 @pytest.mark.parametrize(
     "kw",
     [
@@ -47,13 +58,7 @@ def test_vector_env_equals_single_envs(kw):
 def test_step_info_equals_the_state_after_every_step_including_autoresets():
     # the kernel writes the batched info while stepping; envs reset after the step get theirs
     # from the reset state: both must equal a fresh readout of the state
-    venv = gym.make_vec(
-        ENV_ID,
-        num_envs=3,
-        vectorization_mode="vector_entry_point",
-        case="hsm2-circle-I",
-        abort_contour_error_m=1e-4,
-    )
+    venv = _tight_guard_venv(3)
     venv.reset(seed=2)
     actions = np.array([[1.0, 1.0], [0.0, 0.0], [-0.3, 0.2]], dtype=np.float32)
     resets = 0
@@ -68,13 +73,7 @@ def test_step_info_equals_the_state_after_every_step_including_autoresets():
 
 
 def test_vector_env_autoresets_next_step():
-    venv = gym.make_vec(
-        ENV_ID,
-        num_envs=2,
-        vectorization_mode="vector_entry_point",
-        case="hsm2-circle-I",
-        abort_contour_error_m=1e-4,
-    )
+    venv = _tight_guard_venv(2)
     venv.reset(seed=0)
     actions = np.array([[1.0, 1.0], [0.0, 0.0]], dtype=np.float32)
     for _ in range(2000):
@@ -123,13 +122,7 @@ def test_core_batch_calls_reject_bad_indices_seeds_and_info_arrays():
 def test_returned_arrays_are_never_written_again():
     # the vector env hands out the kernel's output arrays without copying them: later steps,
     # autoresets and reset() must leave every array it returned as it was
-    venv = gym.make_vec(
-        ENV_ID,
-        num_envs=2,
-        vectorization_mode="vector_entry_point",
-        case="hsm2-circle-I",
-        abort_contour_error_m=1e-4,
-    )
+    venv = _tight_guard_venv(2)
     kept = [venv.reset(seed=3)[0]]
     copies = [kept[0].copy()]
     actions = np.array([[1.0, 1.0], [0.0, 0.0]], dtype=np.float32)
