@@ -46,25 +46,35 @@ class Controller:
         """Attach to an env and reset. The controller keeps the axis count it was first bound
         with: binding it to an env with another number of axes is an error."""
         holder, core = _core_of(env)
-        plant = core.setup.plant
+        self._attach(core.setup.plant, core.n_envs)
+        self._core = core
+        self._single = not hasattr(holder, "num_envs")
+        self.configure()
+        self.reset()
+        return self
+
+    def configure_for(self, plant) -> Controller:
+        """Derive the gains for ``plant`` (a :class:`contour_env.plants.Plant`) without an env,
+        for analysis (loop margins); the controller cannot :meth:`predict` until bound."""
+        self._attach(plant, 1)
+        self.configure()
+        self.reset()
+        return self
+
+    def _attach(self, plant, n_envs: int) -> None:
         if self.n_axes is not None and self.n_axes != plant.n_axes:
             raise ValueError(
                 f"env: controller {self.name!r} was built for a {self.n_axes}-axis plant, the "
                 f"env has {plant.n_axes} axes"
             )
-        self._core = core
-        self._single = not hasattr(holder, "num_envs")
         self.nominal = plant.nominal
         self.servo_period_s = plant.servo_period_s
         self.force_limit = plant.params.force_limit_N.copy()
         self.n_axes = plant.n_axes
-        self.n_envs = core.n_envs
+        self.n_envs = n_envs
         # the controller's own computation delay (samples) is a property of the servo
         # hardware its designer knows, not a plant uncertainty
         self.computation_delay_steps = int(plant.params.computation_delay)
-        self.configure()
-        self.reset()
-        return self
 
     def configure(self) -> None:
         """Derive gains from the bound plant (called by :meth:`bind`)."""
@@ -75,6 +85,24 @@ class Controller:
     def act(self, signals: dict) -> np.ndarray:
         """Command (B, A) from batched signals (see :meth:`EnvCore.signals_batch`)."""
         raise NotImplementedError
+
+    def loop_gains(
+        self,
+        frame: np.ndarray,
+        curvature: float = 0.0,
+        torsion: float = 0.0,
+        feedrate_m_s: float = 0.0,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The feedback law linearised at a frozen path point, for loop analysis
+        (:mod:`agents.margins`): matrices (A0, A1, A2), each (A, A), such that
+
+            u_k = A0 E_k + A1 (E_k − E_{k−1}) / T + A2 T Σ_{j≤k} E_j,    E = x_d − x_measured,
+
+        with ``frame`` (A, A) the path frame columns [t n (b)], the signed curvature (1/m),
+        torsion (1/m) and feedrate (m/s) of that point. Feedforward terms (which do not close a
+        loop) and slow adaptation are left out. Controllers without a linear feedback model
+        raise ``ValueError``."""
+        raise ValueError(f"controller {self.name!r}: no linear feedback model for loop analysis")
 
     def command(self, signals: dict) -> np.ndarray:
         """The residual-base interface: command (B, A) in the plant's units for (single or

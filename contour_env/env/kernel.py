@@ -128,6 +128,14 @@ def observe(dim, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
 
 
 @njit(cache=True, inline="always")
+def _drive_position(z, b, i):
+    """The position the encoder reads (m): the drive (motor) side of the two-mass model,
+    state index 2, when the plant has the axial mode (semi-closed loop: the encoder is on
+    the drive, the table/tool point vibrates against it); otherwise the table, index 0."""
+    return z[b, i, 2] if z.shape[2] >= 4 else z[b, i, 0]
+
+
+@njit(cache=True, inline="always")
 def _encoder(x, seed_b, step, i, p, cfg, nl):
     """What the encoder of axis i reads at sample ``step`` for the true position x (m):
     x plus the optional measurement noise, rounded to the nearest count."""
@@ -272,7 +280,7 @@ def _step_one(
         x = z[b, i, 0]
         if not (math.isfinite(x) and math.isfinite(z[b, i, 1])):
             finite = False
-        xm = _encoder(x, seed[b], kb, i, p, cfg, nl)
+        xm = _encoder(_drive_position(z, b, i), seed[b], kb, i, p, cfg, nl)
         ax[AX_VEL, b, i] = (xm - ax[AX_MEAS, b, i]) * inv_T
         ax[AX_MEAS, b, i] = xm
     for r in range(n_axes):
@@ -573,7 +581,7 @@ def env_reset(
             if cfg[C_DIST_PHASE_RANDOM] > 0.0 and nl[p, i, NL_FD] > 0.0:
                 toff = uniform01(seed[b], 0, i, _STREAM_PHASE) / nl[p, i, NL_FD]
             ax[AX_TOFF, b, i] = toff
-            ax[AX_MEAS, b, i] = _encoder(z[b, i, 0], seed[b], 0, i, p, cfg, nl)
+            ax[AX_MEAS, b, i] = _encoder(_drive_position(z, b, i), seed[b], 0, i, p, cfg, nl)
             ax[AX_VEL, b, i] = 0.0
             est[b, i] = ref_pav[0, 0, i] - z[b, i, 0]
         k[b] = 0

@@ -79,8 +79,10 @@ class PlantParams:
     computation_delay : bool
         Command computed at sample k is applied from sample k+1 (one servo period).
     structural_stiffness_N_m : (n,) float >= 0
-        Axial two-mass ball-screw model: 0 disables it; >0 splits the mass into a motor side
-        and a load (table) side joined by this stiffness.
+        Axial two-mass model: 0 disables it; >0 splits the mass into a drive (motor) side
+        and a load (table/tool point) side joined by this stiffness. The encoder then reads
+        the drive side (semi-closed loop: a rotary encoder on a ball screw, or the read head
+        on a direct drive's carriage), while the contour error is that of the load side.
     structural_damping_Ns_m : (n,) float >= 0, load_mass_fraction : (n,) float in (0, 1)
         Damping of that spring and the share of ``mass_kg`` on the load side.
     friction_substeps : int >= 1

@@ -166,3 +166,22 @@ def test_signals_expose_what_a_servo_measures():
     np.testing.assert_allclose(s["frame"].T @ s["frame"], np.eye(3), atol=1e-12)
     assert s["servo_period_s"] == pytest.approx(1e-3)
     assert s["measured_position"].shape == (3,)
+
+
+def test_encoder_reads_the_drive_side_with_the_structural_mode():
+    """With the two-mass mode the encoder reads the drive (motor) side, state index 2
+    (semi-closed loop), and the contour error is the load's (index 0)."""
+    from contour_env.plants import quantize
+
+    env = gym.make("contour_env/Contouring-v0", case="hsm2-circle-I", structural_mode=True)
+    env.reset(seed=0)
+    core = env.unwrapped.core
+    res = core.setup.plant.params.encoder_resolution_m
+    differs = False
+    for _ in range(300):
+        _, _, _, _, info = env.step(np.full(2, 0.05, dtype=np.float32))
+        drive, load = core.z[0, :, 2], core.z[0, :, 0]
+        np.testing.assert_array_equal(info["measured_position"], quantize(drive, res))
+        np.testing.assert_array_equal(info["position"], load)
+        differs |= bool(np.any(quantize(drive, res) != quantize(load, res)))
+    assert differs
