@@ -8,10 +8,11 @@ import numpy as np
 
 from contour_env import ENV_ID
 from contour_env.evaluation import run_episode
-from contour_env.metrics import score
+from contour_env.metrics import format_um, score
 from contour_env.plants.randomize import randomized
 
-from .registry import make_controller
+from .parameters import split_spec
+from .registry import CONTROLLERS, make_controller
 
 CVAR_FRACTION = 0.10
 # the row name of a trained residual agent (``model``: a model DIR, or the shipped agent)
@@ -25,11 +26,34 @@ def comparable_names() -> list[str]:
     return [*controller_names(), RESIDUAL]
 
 
+def check_controllers(specs: list[str]) -> None:
+    """``ValueError`` for an unknown name, a malformed or unknown parameter, or a value the
+    controller's constructor refuses, in any of ``specs`` (names or variants such as
+    ``ccc:wp=3e4``) — before anything is run. ``residual`` takes no parameters."""
+    if not specs:
+        raise ValueError(f"controllers: none given; known: {', '.join(comparable_names())}")
+    for spec in specs:
+        name, pairs = split_spec(spec)
+        if name == RESIDUAL:
+            if pairs:
+                raise ValueError(
+                    f"controller {spec!r}: residual takes no parameters (its agent comes from "
+                    "--model DIR / model=)"
+                )
+            continue
+        if name not in CONTROLLERS:
+            raise ValueError(
+                f"controllers: unknown controller {name!r}; known: {', '.join(comparable_names())}"
+            )
+        make_controller(spec)
+
+
 def bound_controller(name: str, env, model=None):
-    """``name`` bound to ``env``; ``residual`` is the agent in ``model`` (a model DIR written
-    by ``contour-env train``) or, without one, the shipped agent for the env's plant
-    (``ValueError`` when there is none, or when the agent was trained for another plant or
-    number of axes)."""
+    """``name`` (a controller name or variant such as ``ccc:wp=3e4``) bound to ``env``;
+    ``residual`` is the agent in ``model`` (a model DIR written by ``contour-env train``) or,
+    without one, the shipped agent for the env's plant (``ValueError`` when there is none, or
+    when the agent was trained for another plant or number of axes)."""
+    check_controllers([name])
     if name != RESIDUAL:
         return make_controller(name).bind(env)
     from .base import _core_of
@@ -45,17 +69,24 @@ def compare(
     controllers: list[str], *, seed: int = 0, progress=None, model=None, **env_kwargs
 ) -> dict:
     """Run every controller on the same env; an unstable one is reported, not raised.
-    ``model``: the model DIR of the ``residual`` row (default: the shipped agent).
+    ``controllers``: names or variants (``"ccc:wp=3e4:wd=20"``, :mod:`agents.parameters`);
+    each row's ``controller`` is the string as given. Every spec is checked before anything
+    runs. ``model``: the model DIR of the ``residual`` row (default: the shipped agent).
 
     Returns {"case": ..., "plant": ..., "results": [{"controller", "stable", metrics...}],
     "records": {name: EpisodeRecord}} (records are for plotting; not JSON).
     """
+    check_controllers(list(controllers))
     results, records = [], {}
     setup = None
+    # bind every controller first: a gain or plant it cannot work with (jee-ccc on a force
+    # drive, a per-axis value of the wrong length) is an error before any row has run
+    bound = []
     for name in controllers:
         env = gym.make(ENV_ID, **env_kwargs)
+        bound.append((name, env, bound_controller(name, env, model)))
+    for name, env, controller in bound:
         setup = env.unwrapped.setup
-        controller = bound_controller(name, env, model)
         record = run_episode(env, controller, seed=seed)
         m = score(record)
         row = {"controller": name, "stable": record.completed, **m}
@@ -80,7 +111,9 @@ def robustness(
     :data:`contour_env.plants.randomize.RANDOMIZED_FIELDS` scaled by U[1 − f, 1 + f]), run as
     one vectorised env; the controllers keep the nominal model. Reports the mean and the
     CVaR of the worst 10 % of RMS contour error, the worst max contour error and the failure
-    rate (episodes stopped by the crash guard)."""
+    rate (episodes stopped by the crash guard). ``controllers``: names or variants, as
+    :func:`compare`."""
+    check_controllers(list(controllers))
     probe = gym.make(ENV_ID, **env_kwargs).unwrapped
     variants = randomized(probe.plant.params, fraction, episodes, seed=seed)
     rows = []
@@ -129,27 +162,54 @@ def robustness(
     return rows
 
 
+def significant(x: float, digits: int = 3) -> str:
+    """``x`` with ``digits`` significant digits in plain notation (``0.00100``, ``1.23``,
+    ``1000``); scientific below 10⁻³ and from 10⁵ on."""
+    if x == 0 or not np.isfinite(x):
+        return f"{x:g}"
+    if not 1e-3 <= abs(x) < 1e5:
+        return f"{x:.{digits - 1}e}"
+    r = float(f"{x:.{digits}g}")  # rounded first: 9.996 → 10.0, not 10.00
+    decimals = digits - 1 - int(np.floor(np.log10(abs(r))))
+    return f"{r:.{max(decimals, 0)}f}"
+
+
+def _reference_row(rows: list[dict]) -> dict | None:
+    """The row the RMS ratio is taken to: ``pd`` when it is among the rows, else the first."""
+    return next((r for r in rows if r["controller"] == "pd"), rows[0] if rows else None)
+
+
 def format_table(comparison: dict, robust: list[dict] | None = None) -> str:
-    """Lee 2012 Tables 2 and 3 layout: max/RMS contour error (µm), RMS effort per axis."""
+    """Lee 2012 Tables 2 and 3 layout: max/RMS contour error (µm), the RMS ratio to PD (or, with
+    no ``pd`` row, to the first row; 3 significant digits), RMS effort per axis. An error
+    below one encoder count prints as ``≤R (enc)`` (R the coarsest axis's count, µm)."""
     rows = comparison["results"]
-    pd_rms = next((r["rms_contour_error_um"] for r in rows if r["controller"] == "pd"), None)
+    ref = _reference_row(rows)
+    ref_rms = ref.get("rms_contour_error_um") if ref is not None and ref["stable"] else None
+    ref_name = "pd" if ref is None else ref["controller"]
+    ref_label = "RMS/PD" if ref_name == "pd" else f"RMS/{ref_name}"
+    names = [r["controller"] for r in rows] + [r["controller"] for r in robust or []]
+    w = max([14, *(len(n) + 2 for n in names)])
+    rw = max(10, len(ref_label) + 2)
     lines = [
         f"case {comparison['case']} (plant {comparison['plant']})",
-        f"{'controller':14s}{'max ε µm':>11s}{'RMS ε µm':>11s}{'RMS/PD':>8s}"
+        f"{'controller':{w}s}{'max ε µm':>12s}{'RMS ε µm':>12s}{ref_label:>{rw}s}"
         f"{'  RMS effort per axis':s}",
     ]
     for r in rows:
         if not r["stable"]:
             lines.append(
-                f"{r['controller']:14s}  UNSTABLE ({r['termination_reason']} after "
+                f"{r['controller']:{w}s}  UNSTABLE ({r['termination_reason']} after "
                 f"{r['n_steps']} steps)"
             )
             continue
-        ratio = f"{r['rms_contour_error_um'] / pd_rms:8.2f}" if pd_rms else f"{'':8s}"
+        rms = r["rms_contour_error_um"]
+        ratio = significant(rms / ref_rms) if ref_rms and rms is not None else ""
         effort = ", ".join(f"{e:.4g}" for e in r["rms_effort"])
+        res = r.get("encoder_resolution_um")
         lines.append(
-            f"{r['controller']:14s}{r['max_contour_error_um']:11.1f}"
-            f"{r['rms_contour_error_um']:11.2f}{ratio}  [{effort}]"
+            f"{r['controller']:{w}s}{format_um(r['max_contour_error_um'], res, '.1f'):>12s}"
+            f"{format_um(rms, res, '.2f'):>12s}{ratio:>{rw}s}  [{effort}]"
         )
     if robust:
         lines.append("")
@@ -158,12 +218,12 @@ def format_table(comparison: dict, robust: list[dict] | None = None) -> str:
             f"±{robust[0]['randomize'] * 100:.0f} %"
         )
         lines.append(
-            f"{'controller':14s}{'mean RMS ε':>12s}{'CVaR10 RMS ε':>14s}"
+            f"{'controller':{w}s}{'mean RMS ε':>12s}{'CVaR10 RMS ε':>14s}"
             f"{'worst max ε':>13s}{'failures':>10s}"
         )
         for r in robust:
             lines.append(
-                f"{r['controller']:14s}{r['mean_rms_contour_error_um']:12.2f}"
+                f"{r['controller']:{w}s}{r['mean_rms_contour_error_um']:12.2f}"
                 f"{r['cvar10_rms_contour_error_um']:14.2f}"
                 f"{r['worst_max_contour_error_um']:13.1f}{r['failure_rate']:10.1%}"
             )

@@ -1,4 +1,9 @@
-"""Controller names users script against."""
+"""Controller names users script against, and their variants ``name:key=value:...``.
+
+``make_controller("ccc:wp=3e4:wd=20")`` builds a CCC with W_p = 3·10⁴ 1/s² and W_d = 20 1/s:
+the parameters after the name are the short names of the class's ``PARAMETERS`` table
+(:mod:`agents.parameters`; ``contour-env controllers`` prints every table).
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,7 @@ from .adaptive_ccc import AdaptiveCCCController
 from .ccc import CCCController
 from .ilc import ILCContourController, ILCPDController
 from .jee_ccc import JeeCCCController
+from .parameters import describe_parameters, spec_kwargs, split_spec
 from .pd import PDController
 from .vilcfd import VILCFDController
 
@@ -27,10 +33,66 @@ def controller_names() -> list[str]:
     return list(CONTROLLERS)
 
 
-def make_controller(name: str, **kwargs):
-    """A controller by name (unbound; call ``.bind(env)``)."""
+def spec_name(spec: str) -> str:
+    """The controller name of a spec (``"ccc:wp=3e4"`` → ``"ccc"``); ``ValueError`` if the
+    spec is malformed."""
+    return split_spec(spec)[0]
+
+
+def parse_controller_spec(spec: str) -> tuple[str, dict]:
+    """``(name, constructor keywords)`` of a spec such as ``"ccc:wp=3e4:wd=20"``.
+
+    ``ValueError`` for an unknown controller (the message lists the known ones), an unknown
+    parameter (the message lists the controller's parameters with their descriptions) or a
+    malformed one (``ccc:``, ``ccc:wp``, ``ccc:wp=abc``, ``ccc:wp=nan``)."""
+    name, pairs = split_spec(spec)
     if name not in CONTROLLERS:
         raise ValueError(
             f"controller: unknown controller {name!r}; known: {', '.join(CONTROLLERS)}"
         )
-    return CONTROLLERS[name](**kwargs)
+    return name, spec_kwargs(spec, CONTROLLERS[name], pairs)
+
+
+def controller_parameters(name: str) -> dict:
+    """The ``PARAMETERS`` table of a controller name: short name → :class:`Param`."""
+    if name not in CONTROLLERS:
+        raise ValueError(
+            f"controller: unknown controller {name!r}; known: {', '.join(CONTROLLERS)}"
+        )
+    return dict(getattr(CONTROLLERS[name], "PARAMETERS", {}))
+
+
+def format_controllers() -> str:
+    """Every controller with its command-line parameters (``contour-env controllers``)."""
+    lines = [
+        "controller variants: NAME[:key=value[:key=value ...]], e.g. ccc:wp=3e4:wd=20; per-axis "
+        "values as a/b(/c), e.g. pd:p=2e6/1e6",
+    ]
+    for name, cls in CONTROLLERS.items():
+        learning = (
+            "  (learning controller: contour-env ilc)" if name in LEARNING_CONTROLLERS else ""
+        )
+        lines.append("")
+        lines.append(f"{name}{learning}")
+        lines.append(describe_parameters(name, getattr(cls, "PARAMETERS", {})))
+    return "\n".join(lines)
+
+
+def make_controller(name: str, **kwargs):
+    """A controller by name or variant spec (unbound; call ``.bind(env)``).
+
+    ``make_controller("ccc:wp=3e4:wd=20")`` and ``make_controller("ccc", W_p=3e4, W_d=20)``
+    are the same controller; a keyword given both ways is a ``ValueError``."""
+    base, spec_kw = parse_controller_spec(name)
+    both = sorted(set(spec_kw) & set(kwargs))
+    if both:
+        raise ValueError(
+            f"controller {name!r}: {', '.join(both)} given both in the spec and as a keyword"
+        )
+    cls = CONTROLLERS[base]
+    if not spec_kw:
+        return cls(**kwargs)
+    try:
+        return cls(**spec_kw, **kwargs)
+    except ValueError as exc:
+        raise ValueError(f"controller {name!r}: {exc}") from None

@@ -76,6 +76,7 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) 
         force_limit=limit.copy(),
         termination_reason=reason,
         n_steps_planned=n_max,
+        encoder_resolution_m=np.array(core.setup.plant.params.encoder_resolution_m, dtype=float),
     )
 
 

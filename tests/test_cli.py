@@ -151,3 +151,58 @@ def test_ilc_writes_json_plot_and_state_and_continues(tmp_path, capsys):
 def test_ilc_rejects_a_controller_that_does_not_learn(capsys):
     assert main(["ilc", "--case", "sharp-corner", "--controller", "pd"]) == 2
     assert "learning controllers: ilc-pd, ilc-contour, vilcfd" in capsys.readouterr().err
+
+
+def test_compare_controller_variants_are_rows_labelled_as_typed(tmp_path, capsys):
+    js = tmp_path / "v.json"
+    argv = ["compare", "--case", "hsm2-circle-I", "--controllers", "pd,pd:w=60", "--json", str(js)]
+    assert main(argv) == 0
+    rows = json.loads(js.read_text())["results"]
+    assert [r["controller"] for r in rows] == ["pd", "pd:w=60"]
+    assert rows[0]["rms_contour_error_um"] != pytest.approx(rows[1]["rms_contour_error_um"])
+    for r in rows:
+        assert r["encoder_resolution_um"] == pytest.approx(2.0)  # hsm2: x counts 2 µm
+        assert r["below_resolution"] in (True, False)
+    out = capsys.readouterr().out
+    assert "pd:w=60" in out and "RMS/PD" in out
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["compare", "--controllers", "pd,ccc:wx=1"], "unknown parameter 'wx' of 'ccc'"),
+        (["compare", "--controllers", "pd,ccc:wp=nan"], "wp must be a number"),
+        (["compare", "--controllers", "pd,residual:x=1"], "residual takes no parameters"),
+        (["run", "--controller", "pd:w"], "'w' is not key=value"),
+        (["ilc", "--controller", "pd:w=80"], "learning controllers: ilc-pd"),
+        (["ilc", "--controller", "vilcfd:friction=maybe"], "friction must be true or false"),
+    ],
+)
+def test_bad_controller_variants_are_clean_errors(argv, words, capsys):
+    assert main([*argv, "--case", "hsm2-circle-I"]) == 2
+    assert words in capsys.readouterr().err
+
+
+def test_run_and_ilc_accept_variants(tmp_path, capsys):
+    js = tmp_path / "r.json"
+    argv = ["run", "--case", "hsm2-circle-I", "--controller", "ccc:wp=3e4:wd=20", "--json", str(js)]
+    assert main(argv) == 0
+    assert json.loads(js.read_text())["controller"] == "ccc:wp=3e4:wd=20"
+    g = tmp_path / "corner.nc"
+    g.write_text("G21 G90 G17\nG01 X3 F1200\nG01 Y3\n")
+    ji = tmp_path / "i.json"
+    spec = "ilc-contour:gn=1.2:q=20"
+    argv = ["ilc", "--plant", "friction-table", "--gcode", str(g), "--controller", spec]
+    assert main([*argv, "--iterations", "2", "--json", str(ji)]) == 0
+    data = json.loads(ji.read_text())
+    assert data["controller"] == spec
+    assert all(r["encoder_resolution_um"] == pytest.approx(0.1) for r in data["iterations"])
+    assert all(r["below_resolution"] is False for r in data["iterations"])
+
+
+def test_controllers_command_lists_every_parameter_with_units(capsys):
+    assert main(["controllers"]) == 0
+    out = capsys.readouterr().out
+    for name in ("pd", "ccc", "adaptive-ccc", "jee-ccc", "ilc-pd", "ilc-contour", "vilcfd"):
+        assert f"\n{name}" in out
+    assert "wp" in out and "1/s²" in out and "gamma_m" in out and "rad/s" in out

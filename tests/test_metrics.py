@@ -52,3 +52,101 @@ def test_diverged_samples_are_none_not_nan():
 def test_empty_record_is_an_error():
     with pytest.raises(ValueError, match="no steps"):
         score(_record([], np.zeros((0, 2)), np.zeros((0, 2))))
+
+
+def _record_with_encoder(eps, resolution_m):
+    n = len(eps)
+    rec = _record(eps, np.zeros((n, 2)), np.ones((n, 2)))
+    rec.encoder_resolution_m = np.asarray(resolution_m, dtype=float)
+    return rec
+
+
+def test_contour_error_below_one_encoder_count_is_flagged():
+    # coarsest axis count 2 µm: RMS 1.5 µm and max 1.9 µm are below it
+    m = score(_record_with_encoder([1.0e-6, 1.9e-6, 1.5e-6, 1.4e-6], [2e-6, 1e-6]))
+    assert m["encoder_resolution_um"] == pytest.approx(2.0)
+    assert m["below_resolution"] is True and m["max_below_resolution"] is True
+    # RMS below, max above one count
+    m = score(_record_with_encoder([0.5e-6, 0.5e-6, 0.5e-6, 3e-6], [2e-6, 1e-6]))
+    assert m["below_resolution"] is True and m["max_below_resolution"] is False
+    # both above; an ideal encoder (0) never flags; an unknown one gives None
+    m = score(_record_with_encoder([5e-6, 6e-6], [0.1e-6, 0.1e-6]))
+    assert m["encoder_resolution_um"] == pytest.approx(0.1)
+    assert m["below_resolution"] is False and m["max_below_resolution"] is False
+    m = score(_record_with_encoder([1e-9, 1e-9], [0.0, 0.0]))
+    assert m["encoder_resolution_um"] == 0.0 and m["below_resolution"] is False
+    m = score(_record([1e-9], [[0.0, 0.0]], [[0.0, 0.0]]))
+    assert m["encoder_resolution_um"] is None and m["below_resolution"] is None
+
+
+def test_run_episode_records_the_plants_encoder():
+    import gymnasium as gym
+
+    from contour_env import ENV_ID
+    from contour_env.evaluation import run_episode
+
+    env = gym.make(ENV_ID, case="sharp-corner")  # friction-table: 0.1 µm counts
+    rec = run_episode(env, None, seed=0)
+    np.testing.assert_allclose(
+        rec.encoder_resolution_m, env.unwrapped.core.setup.plant.params.encoder_resolution_m
+    )
+    assert score(rec)["encoder_resolution_um"] == pytest.approx(0.1)
+
+
+def _comparison(rows):
+    base = {
+        "stable": True,
+        "termination_reason": None,
+        "n_steps": 10,
+        "rms_effort": [1.0, 2.0],
+        "encoder_resolution_um": 0.1,
+    }
+    return {"case": "c", "plant": "p", "results": [{**base, **r} for r in rows]}
+
+
+def test_compare_table_marks_errors_below_one_count_and_prints_3_significant_digits():
+    from agents.compare import format_table
+
+    text = format_table(
+        _comparison(
+            [
+                {"controller": "pd", "max_contour_error_um": 200.0, "rms_contour_error_um": 100.0},
+                {"controller": "ccc", "max_contour_error_um": 0.09, "rms_contour_error_um": 0.05},
+                {"controller": "x", "max_contour_error_um": 2e5, "rms_contour_error_um": 1e5},
+            ]
+        )
+    )
+    lines = text.splitlines()
+    assert "RMS/PD" in lines[1]
+    ccc = next(line for line in lines if line.startswith("ccc"))
+    assert ccc.count("≤0.1 (enc)") == 2 and "0.05" not in ccc.split("[")[0]
+    assert "5.00e-04" in ccc  # 3 significant digits, not 0.00
+    x = next(line for line in lines if line.startswith("x "))
+    assert " 1000 " in x  # a 1000× ratio, 3 significant digits
+    pd = next(line for line in lines if line.startswith("pd"))
+    assert "100.00" in pd and "1.00" in pd
+
+
+def test_compare_table_without_pd_takes_the_first_row_as_reference():
+    from agents.compare import format_table
+
+    text = format_table(
+        _comparison(
+            [
+                {
+                    "controller": "ccc:wp=3e4",
+                    "max_contour_error_um": 9.0,
+                    "rms_contour_error_um": 4.0,
+                },
+                {
+                    "controller": "adaptive-ccc",
+                    "max_contour_error_um": 5.0,
+                    "rms_contour_error_um": 1.0,
+                },
+            ]
+        )
+    )
+    lines = text.splitlines()
+    assert "RMS/ccc:wp=3e4" in lines[1] and "RMS/PD" not in text
+    assert lines[2].split("[")[0].split()[-1] == "1.00"
+    assert lines[3].split("[")[0].split()[-1] == "0.250"
