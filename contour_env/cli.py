@@ -66,6 +66,14 @@ def cmd_cases(args) -> int:
     return 0
 
 
+def cmd_controllers(args) -> int:
+    from agents.registry import format_controllers
+
+    print(format_controllers())
+    print("\nresidual  (compare only: the agent of --model DIR)\n  (no parameters)")
+    return 0
+
+
 def _print_metrics(name: str, m: dict) -> None:
     def fmt(v):
         if v is None:
@@ -74,9 +82,15 @@ def _print_metrics(name: str, m: dict) -> None:
             return "[" + ", ".join(fmt(x) for x in v) + "]"
         return f"{v:.4g}" if isinstance(v, float) else str(v)
 
+    # a contour error below one encoder count prints as such (the JSON keeps the number)
+    below = {
+        "max_contour_error_um": m.get("max_below_resolution"),
+        "rms_contour_error_um": m.get("below_resolution"),
+    }
     print(f"{name}:")
     for key, value in m.items():
-        print(f"  {key:28s} {fmt(value)}")
+        text = f"≤{m['encoder_resolution_um']:g} (enc)" if below.get(key) else fmt(value)
+        print(f"  {key:28s} {text}")
 
 
 def cmd_run(args) -> int:
@@ -129,16 +143,14 @@ def cmd_run(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from agents.compare import comparable_names, compare, format_table, robustness
+    from agents.compare import check_controllers, compare, format_table, robustness
 
     from .io import atomic_write_json
     from .plotting import plot_runs
 
+    # rows are names or variants (ccc:wp=3e4:wd=20); each row is labelled as typed
     names = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    known = comparable_names()
-    unknown = [c for c in names if c not in known]
-    if not names or unknown:
-        raise ValueError(f"controllers: unknown {unknown or names!r}; known: {', '.join(known)}")
+    check_controllers(names)
     if args.model is not None and "residual" not in names:
         raise ValueError(
             "model: --model DIR is the agent of the 'residual' row; add residual to --controllers"
@@ -150,6 +162,8 @@ def cmd_compare(args) -> int:
             status = "" if row["stable"] else f" UNSTABLE ({row['termination_reason']})"
             rms = row["rms_contour_error_um"]
             text = f"{rms:.2f} µm" if rms is not None else "n/a"
+            if row.get("below_resolution"):
+                text = f"≤{row['encoder_resolution_um']:g} µm (below one encoder count)"
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
 
     result = compare(names, seed=args.seed, progress=show, model=args.model, **kw)
@@ -200,14 +214,15 @@ def cmd_ilc(args) -> int:
     import gymnasium as gym
 
     from agents import make_controller
-    from agents.registry import LEARNING_CONTROLLERS
+    from agents.registry import LEARNING_CONTROLLERS, spec_name
     from agents.repeated_batch import run_batch
 
     from . import ENV_ID
     from .io import atomic_write_json
+    from .metrics import format_um, resolution_fields
     from .plotting import plot_learning
 
-    if args.controller not in LEARNING_CONTROLLERS:
+    if spec_name(args.controller) not in LEARNING_CONTROLLERS:
         raise ValueError(
             f"--controller: {args.controller!r} does not learn between trials; learning "
             f"controllers: {', '.join(LEARNING_CONTROLLERS)}"
@@ -225,6 +240,11 @@ def cmd_ilc(args) -> int:
         controller.load_state(args.load)
     controller.bind(env)
     result = run_batch(env, controller, args.iterations, seed=args.seed, progress=True)
+    result["controller"] = args.controller  # the spec as typed (ilc-pd:gain=0.8)
+    resolution_m = env.unwrapped.core.setup.plant.params.encoder_resolution_m
+    for r in result["iterations"]:
+        if r.get("encoder_resolution_um") is None:  # trial records do not carry the encoder
+            r.update(resolution_fields(r, resolution_m))
     print(f"case {result['case']} (plant {result['plant']}), controller {result['controller']}")
     print(f"{'iteration':>9s} {'max ε µm':>10s} {'RMS ε µm':>10s} {'RMS/first':>10s}")
     first = result["iterations"][0]["rms_contour_error_um"]
@@ -232,12 +252,13 @@ def cmd_ilc(args) -> int:
         rms = r["rms_contour_error_um"]
         ratio = f"{rms / first:10.4f}" if rms is not None and first else f"{'–':>10s}"
         mx = r["max_contour_error_um"]
+        res = r["encoder_resolution_um"]
         flag = "  error growing" if r["error_growing"] else ""
         if not r["completed"]:
             flag = f"  stopped: {r['termination_reason']}"
         print(
-            f"{r['iteration']:9d} {mx if mx is not None else float('nan'):10.3f} "
-            f"{rms if rms is not None else float('nan'):10.3f} {ratio}{flag}"
+            f"{r['iteration']:9d} {format_um(mx, res, '.3f'):>10s} "
+            f"{format_um(rms, res, '.3f'):>10s} {ratio}{flag}"
         )
     if result["diverged"]:
         print("warning: the learning diverged (a trial failed or the last is worse than the first)")
@@ -279,10 +300,42 @@ def cmd_stability(args) -> int:
             ) from None
     rep = stability_report(plant, ideal=not args.realistic, **kw)
     print(format_stability_report(rep))
+    if args.cross_coupling or args.plot or args.cp is not None or args.verify_margins:
+        from .analysis.jee_chart import run_cross_coupling
+
+        cc, text = run_cross_coupling(
+            plant,
+            realistic=args.realistic,
+            cp=args.cp,
+            plot=args.plot,
+            verify_margins=args.verify_margins,
+            **kw,
+        )
+        print(text)
+        rep.update(cc)
     if args.json:
         atomic_write_json(args.json, rep)
         print(f"wrote {args.json}")
     return 0
+
+
+def cmd_margins(args) -> int:
+    from agents.margins import format_margins, loop_margins, meets_requirement
+
+    from .io import atomic_write_json
+
+    rep = loop_margins(
+        args.controller,
+        args.plant,
+        ideal=args.ideal,
+        structural_mode=args.structural_mode,
+        mass_variation=args.mass_variation,
+    )
+    print(format_margins(rep))
+    if args.json:
+        atomic_write_json(args.json, rep)
+        print(f"wrote {args.json}")
+    return 0 if not args.check or meets_requirement(rep) else 1
 
 
 def cmd_bench(args) -> int:
@@ -311,12 +364,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("cases", help="list the named cases")
     p.add_argument("-v", "--verbose", action="store_true", help="full notes and published results")
     p.set_defaults(func=cmd_cases)
+    p = sub.add_parser(
+        "controllers", help="every controller with its parameters (for NAME:key=value variants)"
+    )
+    p.set_defaults(func=cmd_controllers)
     p = sub.add_parser("run", help="run one episode and print its metrics")
     _add_target_args(p)
     p.add_argument(
         "--controller",
         default=None,
-        help="controller used as the policy (pd); default: zero command",
+        help="controller used as the policy: a name or a variant NAME:key=value[:key=value] "
+        "(pd, ccc:wp=3e4; see `contour-env controllers`); default: zero command",
     )
     p.add_argument("--json", help="write the metrics as JSON to this file")
     p.add_argument("--plot", help="write a plot (PNG) to this file")
@@ -326,8 +384,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--controllers",
         default="pd,ccc,adaptive-ccc",
-        help="comma-separated controllers (pd, ccc, adaptive-ccc, jee-ccc, residual); "
-        "default pd,ccc,adaptive-ccc",
+        help="comma-separated controllers (pd, ccc, adaptive-ccc, jee-ccc, residual) or "
+        "variants NAME:key=value[:key=value] (e.g. pd,ccc:wp=3e4:wd=20,adaptive-ccc:gamma=0; "
+        "see `contour-env controllers`); default pd,ccc,adaptive-ccc",
     )
     p.add_argument(
         "--model",
@@ -357,7 +416,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--controller",
         default="ilc-contour",
-        help="learning controller: ilc-pd, ilc-contour, vilcfd (default ilc-contour)",
+        help="learning controller: ilc-pd, ilc-contour, vilcfd, or a variant such as "
+        "vilcfd:dob=0:friction=false (see `contour-env controllers`; default ilc-contour)",
     )
     p.add_argument("--iterations", type=int, default=10, help="number of trials (default 10)")
     p.add_argument("--json", help="write the per-iteration metrics as JSON to this file")
@@ -403,8 +463,59 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="simulate the plant with its realistic effects (default: ideal, as the paper)",
     )
+    p.add_argument(
+        "--cross-coupling",
+        action="store_true",
+        help="add Jee's cross-coupling analysis (velocity-command plants): stable (C_P, C_I) "
+        "and (C_P, C_D) regions, design chart, recommended gains, steady state with G_C",
+    )
+    p.add_argument(
+        "--cp",
+        type=float,
+        help="cross-coupling C_P for its steady state (C_I = 2.62 C_P, C_D = 0.02 C_P; "
+        "default: the recommended gains; implies --cross-coupling)",
+    )
+    p.add_argument(
+        "--plot", help="write Jee's Figs. 4a/4b/5 to this PNG (implies --cross-coupling)"
+    )
+    p.add_argument(
+        "--verify-margins",
+        action="store_true",
+        help="check the realistic recommended gains with agents.margins.loop_margins "
+        "(implies --cross-coupling)",
+    )
     p.add_argument("--json", help="write the report as JSON to this file")
     p.set_defaults(func=cmd_stability)
+    p = sub.add_parser(
+        "margins",
+        help="gain and phase margins of every loop a controller closes (realistic plant)",
+    )
+    p.add_argument("--plant", default="hsm2", help="plant name (default hsm2)")
+    p.add_argument(
+        "--controller",
+        default="pd",
+        help="controller or variant, e.g. pd, ccc, ccc:wp=3e4, adaptive-ccc, jee-ccc (default pd)",
+    )
+    p.add_argument(
+        "--structural-mode",
+        action="store_true",
+        help="with the plant's axial two-mass mode (encoder on the drive side)",
+    )
+    p.add_argument("--ideal", action="store_true", help="the textbook plant instead")
+    p.add_argument(
+        "--mass-variation",
+        type=float,
+        default=0.2,
+        help="± fraction of the mass corners (default 0.2)",
+    )
+    p.add_argument("--json", help="write the report as JSON to this file")
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="exit 1 when the margins miss the requirement (6 dB / 30°; structural mode "
+        "2 dB / 10°)",
+    )
+    p.set_defaults(func=cmd_margins)
     p = sub.add_parser("bench", help="steps/s of the single and the vectorised env")
     p.add_argument("--case", default=DEFAULT_CASE, help=f"case (default {DEFAULT_CASE})")
     p.add_argument(
