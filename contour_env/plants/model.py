@@ -139,6 +139,10 @@ class Plant:
         mismatch). False (default): the documented realistic effects of the named plant.
     structural_mode : bool
         Add the axial two-mass (ball-screw) mode of the named plant.
+    true_scale : mapping, optional
+        Named plants: per-axis factors true = nominal × factor replacing the realistic
+        mismatch of those fields (a payload: ``{"mass_kg": (1.3, 1.3)}``); see
+        :func:`~contour_env.plants.catalog.resolve_plant`.
 
     Attributes
     ----------
@@ -147,9 +151,16 @@ class Plant:
     effects : dict         what is switched on (for reports).
     """
 
-    def __init__(self, plant="hsm2", *, ideal: bool = False, structural_mode: bool = False):
+    def __init__(
+        self,
+        plant="hsm2",
+        *,
+        ideal: bool = False,
+        structural_mode: bool = False,
+        true_scale=None,
+    ):
         self.params, self.nominal, self.effects = resolve_plant(
-            plant, ideal=ideal, structural_mode=structural_mode
+            plant, ideal=ideal, structural_mode=structural_mode, true_scale=true_scale
         )
         self.packed = pack_params([self.params])
 
