@@ -20,6 +20,9 @@ DEFAULT_GAINS = {
     "friction-table": {"W_p": 0.0, "W_i": 3.0e5, "W_d": 0.0},
 }
 FALLBACK_GAINS = {"W_p": 0.0, "W_i": 0.0, "W_d": 0.0}
+# a tangent turning by more than this within one servo period is a corner (exact stop), not a
+# curve: 0.1 rad per sample is a 10 mm radius at 10 m/s with a 1 ms period
+CORNER_TURN_RAD = 0.1
 
 
 def contour_error_estimate(signals: dict) -> tuple[np.ndarray, np.ndarray | None]:
@@ -104,10 +107,44 @@ class CCCController(PDController):
             self._prev = np.zeros((B, 2))
             self._integral = np.zeros((B, A))  # T Σ ε̂ as a vector in the normal plane, m s
             self._started = np.zeros(B, dtype=bool)
+            self._tangent = np.zeros((B, A))  # the previous sample's path tangent
+            self._corner = np.zeros((B, A))  # the reference where the frame last jumped
+            self._bisector = np.zeros((B, A))  # old + new tangent at that jump
+            self._holding = np.zeros(B, dtype=bool)
         else:
-            self._prev[mask] = 0.0
-            self._integral[mask] = 0.0
+            for arr in (self._prev, self._integral, self._tangent, self._corner, self._bisector):
+                arr[mask] = 0.0
             self._started[mask] = False
+            self._holding[mask] = False
+
+    def _corner_hold(self, signals: dict) -> np.ndarray:
+        """(B,) bool: the tool has not reached the segment the reference is on yet.
+
+        Koren's estimate refers to the reference point's frame. Where that frame jumps (an
+        exact-stop corner: the tangent turns by more than ``CORNER_TURN_RAD`` in one sample),
+        a tool still on the previous segment is not off the path, but the estimate reads its
+        lag along the old tangent as normal error and the compensator — its integral above all
+        — would push it off the path. From the jump until the tool passes the corner (the
+        reference where the frame jumped) along the new tangent, the coupling holds: the
+        integral restarts at zero and no correction is applied; the axial PD brings the tool
+        round the corner. Past means on the new segment's side of the corner's bisector,
+        (x − c)·(t_old + t_new) ≥ 0 (a near-reversal holds nothing: the tool stays on the line).
+        """
+        t = signals["frame"][:, :, 0]
+        B = t.shape[0]
+        prev_t, corner, holding = self._tangent[:B], self._corner[:B], self._holding[:B]
+        bisector = self._bisector[:B]
+        cos_turn = np.sum(prev_t * t, axis=1)
+        # a reversal (turn near 180°) keeps the tool on the same line: nothing to hold
+        jump = self._started[:B] & (cos_turn < np.cos(CORNER_TURN_RAD)) & (cos_turn > -0.9)
+        corner[jump] = signals["reference_position"][jump]
+        bisector[jump] = (prev_t + t)[jump]
+        holding |= jump
+        # past the corner: on the new segment's side of the bisector of the two segments
+        past = np.sum(bisector * (signals["measured_position"] - corner), axis=1) >= 0.0
+        holding &= ~past
+        prev_t[:] = t
+        return holding
 
     def act(self, signals: dict) -> np.ndarray:
         u = super().act(signals)
@@ -118,6 +155,11 @@ class CCCController(PDController):
         prev = self._prev[:B]
         started = self._started[:B]
         J = self._integral[:B]
+        hold = self._corner_hold(signals)
+        if hold.any():
+            J[hold] = 0.0
+            eps_n = np.where(hold, 0.0, eps_n)
+            eps_b = None if eps_b is None else np.where(hold, 0.0, eps_b)
         directions = [(F[:, :, 1], eps_n, 0)]
         if eps_b is not None:
             directions.append((F[:, :, 2], eps_b, 1))

@@ -1,6 +1,6 @@
 """Residual agents against their base controllers: the figures of issue 5's acceptance.
 
-    python scripts/residual_benchmark.py [--models DIR[,DIR...]] [--json OUT]
+    python scripts/residual_benchmark.py [--models DIR[,DIR...]] [--json OUT] [--markdown]
 
 For every model DIR (default: the shipped agents, ``contour-env models``) and every test
 contour of its plant, the agent and its base are scored with the project's one scoring
@@ -122,10 +122,35 @@ def format_rows(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def format_markdown(rows: list[dict]) -> str:
+    """The rows as the README's markdown table."""
+    lines = [
+        "| agent (base) | contour | base RMS / max µm | agent RMS / max µm | RMS ratio "
+        "| effort ratio per axis |",
+        "|---|---|---|---|---|---|",
+    ]
+    last = None
+    for r in rows:
+        label = "" if r["model"] == last else f"`{r['plant']}` ({r['base']})"
+        last = r["model"]
+        eff = ", ".join(
+            f"{e:.3f}" if e is not None else "(idle in base)" for e in r["effort_ratio"]
+        )
+        lines.append(
+            f"| {label} | {r['target']} | {r['base_rms_contour_error_um']:.3f} / "
+            f"{r['base_max_contour_error_um']:.2f} | {r['agent_rms_contour_error_um']:.3f} / "
+            f"{r['agent_max_contour_error_um']:.2f} | {r['rms_ratio']:.3f} | {eff} |"
+        )
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--models", help="comma-separated model DIRs (default: the shipped agents)")
     ap.add_argument("--json", help="write the rows as JSON to this file")
+    ap.add_argument(
+        "--markdown", action="store_true", help="also print the rows as the README's table"
+    )
     args = ap.parse_args(argv)
     if args.models:
         dirs = [Path(d) for d in args.models.split(",") if d]
@@ -140,6 +165,9 @@ def main(argv=None) -> int:
         print(format_rows(new), flush=True)
     print()
     print(format_rows(rows))
+    if args.markdown:
+        print()
+        print(format_markdown(rows))
     if args.json:
         atomic_write_json(args.json, {"rows": rows})
         print(f"wrote {args.json}")

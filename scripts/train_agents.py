@@ -42,17 +42,16 @@ SHIPPED = {
     "linear-motor": dict(
         cases=("lm-circle3d",), base="ccc", algo="sac", timesteps=60_000, eval_freq=10_000
     ),
-    # stiction at the exact-stop corner of the friction table; base: PD (CCC already holds
-    # the corner to 0.01 µm RMS, below the 0.1 µm encoder resolution; see the README). The
-    # agent sees only the task-frame errors and also trains on random circles: it gains less
-    # on the corner than one trained on the corner alone with the full observation (−46 %
-    # against −96 %) but does not spoil paths it was not trained on (README table)
+    # stiction at the exact-stop corner of the friction table; base: CCC, the best classical
+    # controller on sharp-corner with the margin-checked defaults (contour-env compare). The
+    # agent sees only the task-frame errors and also trains on random circles, so that it
+    # does not spoil paths it was not trained on (README table)
     "friction-table": dict(
         cases=("sharp-corner",),
         path_variety=("circles",),
         observation="errors",
         residual_penalty=5.0,
-        base="pd",
+        base="ccc",
         algo="sac",
         timesteps=60_000,
         eval_freq=20_000,

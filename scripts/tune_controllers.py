@@ -19,7 +19,9 @@ Criteria:
 - ccc: the PD gains plus the cross-coupling PID (W_p, W_i, W_d) from ``CCC_GRID`` (coordinate
   search: W_i, then W_p, then W_d) that meets R1 and R2 with the lowest mean RMS contour error
   relative to PD over the plant's **tuning paths** (``TUNING_PATHS``), RMS effort per axis
-  within +10 % of PD's on each (Lee: PD first, then CCC).
+  within +10 % of PD's and the max contour error within +5 % of PD's on each (Lee: PD first,
+  then CCC; Lee's tables report max and RMS, and a cross-coupling that buys RMS with a higher
+  peak at a corner is not one an engineer would take).
 - adaptive-ccc: the same ω as PD (so the same P and D action); its coupling and adaptation
   follow the rules in agents/adaptive_ccc.py (no search here).
 - jee-ccc: from Jee's design chart (``contour-env stability``; agents/jee_ccc.py).
@@ -61,6 +63,9 @@ R1 = requirement(structural_mode=False)
 R2 = requirement(structural_mode=True)
 SCREEN_BUFFER = (-0.5, -3.0)
 EFFORT_SLACK = 1.10
+# the max contour error may not exceed PD's by more than this on any tuning path (a peak at a
+# friction reversal, which cross-coupling cannot remove, moves by a few per cent either way)
+MAX_SLACK = 1.05
 
 
 def _rotated_square(side_m: float, angle_deg: float, dim: int = 2) -> np.ndarray:
@@ -182,6 +187,7 @@ def run_paths(plant: str, make) -> list[dict]:
                 "path": label,
                 "completed": bool(m["completed"]),
                 "rms_um": m["rms_contour_error_um"],
+                "max_um": m["max_contour_error_um"],
                 "effort": list(m["rms_effort"]),
             }
         )
@@ -217,8 +223,9 @@ def _margin_summary(reps: dict) -> dict:
 def tune_ccc(plant: str, omega: float, progress=print) -> dict:
     """Coordinate search over ``CCC_GRID``: W_i with W_p = W_d = 0, then W_p at the best W_i,
     then W_d at the best pair; each point must meet R1 and R2 (screened, then confirmed) and
-    keep RMS effort within +10 % of PD's on every tuning path; the objective is the mean over
-    the tuning paths of RMS contour error relative to PD."""
+    keep RMS effort within +10 % and the max contour error within +5 % of PD's on every tuning
+    path; the objective is the mean over the tuning paths of RMS contour error relative to
+    PD."""
     base = run_paths(plant, lambda: PDController(bandwidth_rad_s=omega))
     best = {"W_p": 0.0, "W_i": 0.0, "W_d": 0.0}
     best_ratio, best_reps = 1.0, None
@@ -239,13 +246,17 @@ def tune_ccc(plant: str, omega: float, progress=print) -> dict:
                 continue
             within = all(
                 np.all(np.asarray(r["effort"]) <= EFFORT_SLACK * np.asarray(b["effort"]))
+                and r["max_um"] <= MAX_SLACK * b["max_um"]
                 for r, b in zip(runs, base, strict=True)
             )
             ratio = float(
                 np.mean([r["rms_um"] / b["rms_um"] for r, b in zip(runs, base, strict=True)])
             )
             text = ", ".join(f"{k}={v:g}" for k, v in gains.items())
-            progress(f"    {text}: RMS/PD {ratio:.3f}{'' if within else ' (effort > +10 %)'}")
+            progress(
+                f"    {text}: RMS/PD {ratio:.3f}"
+                + ("" if within else " (effort > +10 % or max > +5 % of PD's on a path)")
+            )
             if within and (ratio < best_ratio or best_reps is None):
                 best_ratio, best_reps, chosen = ratio, reps, dict(gains)
         if best_reps is not None:

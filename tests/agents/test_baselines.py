@@ -89,3 +89,51 @@ def test_ccc_holds_a_corner_rotated_by_30_degrees(plant):
     ccc = _run("ccc", plant=plant, path=str(ROTATED_CORNER))
     _no_limit_cycle(ccc, pd)
     assert ccc["rms_contour_error_um"] <= pd["rms_contour_error_um"]
+
+
+def _corner_signals(frame, reference, measured):
+    z = np.zeros((1, 2))
+    return {
+        "measured_position": np.asarray([measured], dtype=float),
+        "measured_velocity": z,
+        "reference_position": np.asarray([reference], dtype=float),
+        "reference_velocity": z,
+        "reference_acceleration": z,
+        "frame": np.asarray(frame, dtype=float)[None],
+        "curvature": np.zeros(1),
+        "torsion": np.zeros(1),
+        "feedrate": np.zeros(1),
+        "step": np.zeros(1, dtype=int),
+    }
+
+
+def test_ccc_holds_its_coupling_until_the_tool_passes_an_exact_stop_corner():
+    """At an exact-stop corner the reference frame jumps; a tool still on the first leg is
+    not off the path, so the coupling (its integral above all) holds until the tool passes
+    the corner's bisector, and the integral restarts there."""
+    from contour_env.plants import Plant
+
+    plant = Plant("friction-table")
+    ccc = make_controller("ccc:wp=1e3:wi=1e5").configure_for(plant)
+    pd = make_controller("pd").configure_for(plant)
+    leg1 = [[1.0, 0.0], [0.0, 1.0]]  # t along +x, n along +y
+    leg2 = [[0.0, -1.0], [1.0, 0.0]]  # a left turn by 90°: t along +y
+    behind = (-1e-4, 2e-5)  # 100 µm short of the corner, 20 µm off the first leg
+    # on the first leg the coupling acts on the 20 µm normal error
+    s = _corner_signals(leg1, (0.0, 0.0), behind)
+    assert not np.allclose(ccc.act(s), pd.act(s))
+    # the frame jumps, the tool is still on the first leg: PD's command exactly
+    for _ in range(5):
+        s = _corner_signals(leg2, (0.0, 1e-5), behind)
+        np.testing.assert_array_equal(ccc.act(s), pd.act(s))
+    # past the bisector (x − c)·(t1 + t2) ≥ 0: the coupling is back, its integral restarted
+    past = (1e-5, 3e-5)
+    s = _corner_signals(leg2, (0.0, 4e-5), past)
+    eps_n = -(np.array(leg2)[:, 1] @ (np.array([0.0, 4e-5]) - np.array(past)))
+    expected = (
+        pd.act(s)
+        - ccc.mass
+        * (ccc.W_p * eps_n + ccc.W_i * eps_n * ccc.servo_period_s)
+        * (np.array(leg2)[:, 1])
+    )
+    np.testing.assert_allclose(ccc.act(s), expected, rtol=1e-12)
