@@ -105,6 +105,7 @@ def robustness(
     seed: int = 0,
     progress=None,
     model=None,
+    traces: bool = False,
     **env_kwargs,
 ) -> list[dict]:
     """Each controller over ``episodes`` true-plant variations (every per-axis parameter of
@@ -112,7 +113,14 @@ def robustness(
     one vectorised env; the controllers keep the nominal model. Reports the mean and the
     CVaR of the worst 10 % of RMS contour error, the worst max contour error and the failure
     rate (episodes stopped by the crash guard). ``controllers``: names or variants, as
-    :func:`compare`."""
+    :func:`compare`.
+
+    Each row also has lists with one entry per variation, in episode order:
+    ``rms_contour_error_um_per_episode``, ``max_contour_error_um_per_episode`` (both µm) and
+    ``failed_per_episode``. With ``traces=True`` a row has ``traces`` too (for plots; numpy
+    arrays, not JSON):
+    ``{"time_s": (n,), "contour_error_m": (n, episodes)}``, ε after each step, NaN once a
+    variation has stopped or where ε is not finite."""
     check_controllers(list(controllers))
     probe = gym.make(ENV_ID, **env_kwargs).unwrapped
     variants = randomized(probe.plant.params, fraction, episodes, seed=seed)
@@ -134,10 +142,15 @@ def robustness(
         sq = np.zeros(episodes)
         peak = np.zeros(episodes)
         count = np.zeros(episodes)
-        for _ in range(n):
+        trace = np.full((n, episodes), np.nan) if traces else None
+        steps = 0
+        for i in range(n):
             action, _ = controller.predict(obs)
             obs, _, term, trunc, info = venv.step(action)
             eps = np.where(np.isfinite(info["contour_error"]), info["contour_error"], np.inf)
+            if trace is not None:
+                trace[i] = np.where(running & np.isfinite(eps), eps, np.nan)
+            steps = i + 1
             sq[running] += np.minimum(eps[running], 1e3) ** 2
             peak[running] = np.maximum(peak[running], eps[running])
             count[running] += 1
@@ -155,7 +168,15 @@ def robustness(
             "cvar10_rms_contour_error_um": float(np.mean(worst)),
             "worst_max_contour_error_um": float(np.max(np.minimum(peak, 1e3)) * 1e6),
             "failure_rate": float(np.mean(failed)),
+            "rms_contour_error_um_per_episode": [float(x) for x in rms],
+            "max_contour_error_um_per_episode": [float(x) for x in np.minimum(peak, 1e3) * 1e6],
+            "failed_per_episode": [bool(x) for x in failed],
         }
+        if trace is not None:
+            row["traces"] = {
+                "time_s": np.arange(1, steps + 1) * core.T,
+                "contour_error_m": trace[:steps],
+            }
         rows.append(row)
         if progress:
             progress(name, row)

@@ -23,11 +23,49 @@ from contour_env.metrics import score
 from .base import _core_of
 from .trial import TrialRecord
 
-# An iteration counts as "error growing" when its RMS contour error exceeds the previous
-# iteration's by more than this factor plus an absolute allowance (fluctuations of a few % or
-# of a fraction of an encoder increment at the converged floor are not divergence).
+# An iteration counts as "error growing" (:func:`error_growing`) when its RMS contour error
+# exceeds a reference by more than this factor plus an absolute allowance (fluctuations of a
+# few % or of a fraction of an encoder increment at the converged floor are not divergence):
+# - a jump: the reference is the previous iteration;
+# - a sustained rise: the last SUSTAINED_RISE_STEPS changes were none of them a fall (each
+#   iteration's RMS not lower than the one before) and the reference is the iteration
+#   SUSTAINED_RISE_STEPS back, so a staircase of small steps, each within the tolerance,
+#   is flagged once it has added up to more than it.
 GROWTH_TOLERANCE = 1.05
 GROWTH_ALLOWANCE_UM = 0.05
+SUSTAINED_RISE_STEPS = 3
+
+
+def _exceeds(rms: float, reference: float) -> bool:
+    return rms > GROWTH_TOLERANCE * reference + GROWTH_ALLOWANCE_UM
+
+
+def error_growing(rms_history) -> bool:
+    """Whether the last of the RMS contour errors ``rms_history`` (µm, one per iteration,
+    oldest first; None: a trial without metrics) shows growth.
+
+    True when the last is None; when it exceeds the one before by more than 5 % + 0.05 µm
+    (a jump); or when none of the last ``SUSTAINED_RISE_STEPS`` (3) changes was a fall and the
+    last exceeds the value 3 iterations back by more than 5 % + 0.05 µm (a sustained rise,
+    e.g. + 2 % per iteration). A fall anywhere in those 3 changes, or a rise within the noise
+    allowance, is not growth; the first iteration never is.
+    """
+    hist = list(rms_history)
+    if not hist:
+        return False
+    rms = hist[-1]
+    if rms is None:
+        return True
+    if len(hist) < 2 or hist[-2] is None:
+        return False
+    if _exceeds(rms, hist[-2]):
+        return True
+    k = SUSTAINED_RISE_STEPS
+    window = hist[-(k + 1) :]
+    if len(window) < k + 1 or any(v is None for v in window):
+        return False
+    rising = all(b >= a for a, b in zip(window[:-1], window[1:], strict=True))
+    return rising and _exceeds(rms, window[0])
 
 
 def fingerprint_of(core) -> dict:
@@ -128,19 +166,21 @@ def run_trial(env, controller, *, seed: int = 0) -> TrialRecord:
     )
 
 
-def _iteration_row(i: int, trial: TrialRecord, previous: dict | None) -> dict:
+def _iteration_row(i: int, trial: TrialRecord, previous_rows: list[dict]) -> dict:
     per_env = [score(trial.episode(b)) for b in range(trial.n_envs)]
     row = {"iteration": i, **per_env[0]}
     row["completed"] = trial.termination_reason[0] is None
     row["termination_reason"] = trial.termination_reason[0]
     rms = row["rms_contour_error_um"]
-    prev = None if previous is None else previous["rms_contour_error_um"]
     if rms is None or not row["completed"]:
         row["error_growing"] = True
     else:
-        row["error_growing"] = bool(
-            prev is not None and rms > GROWTH_TOLERANCE * prev + GROWTH_ALLOWANCE_UM
-        )
+        # an earlier trial that did not complete has no comparable RMS
+        history = [
+            r["rms_contour_error_um"] if r["completed"] else None
+            for r in previous_rows[-SUSTAINED_RISE_STEPS:]
+        ]
+        row["error_growing"] = error_growing([*history, rms])
     if trial.n_envs > 1:
         rms_all = [m["rms_contour_error_um"] for m in per_env]
         max_all = [m["max_contour_error_um"] for m in per_env]
@@ -177,9 +217,10 @@ def run_batch(
     Returns ``{"case", "plant", "controller", "iterations": [row, ...], "trials": {...}}``:
     a row per iteration with ``iteration`` (1-based), the metrics of
     :func:`contour_env.metrics.score` for env 0, ``completed``, ``termination_reason``,
-    ``error_growing`` (RMS > 1.05 × previous + 0.05 µm, or the trial did not complete), and,
-    with a
-    vectorised env, ``batch`` (mean and worst RMS over the envs, worst max, failures).
+    ``error_growing`` (:func:`error_growing`: RMS > 1.05 × previous + 0.05 µm, or a
+    sustained rise — no fall over the last 3 iterations and RMS > 1.05 × the value 3
+    iterations back + 0.05 µm —, or the trial did not complete), and, with a vectorised env,
+    ``batch`` (mean and worst RMS over the envs, worst max, failures).
     ``trials`` holds the :class:`TrialRecord` of the iterations in ``keep_trials`` (1-based,
     negative from the end; for plots; not JSON).
     """
@@ -198,12 +239,10 @@ def run_batch(
         from tqdm.auto import tqdm
 
         bar = tqdm(total=iterations, desc=f"{getattr(controller, 'name', 'trial')}", unit="trial")
-    previous = None
     for i in range(1, iterations + 1):
         trial = run_trial(env, controller, seed=seed + i - 1)
-        row = _iteration_row(i, trial, previous)
+        row = _iteration_row(i, trial, rows)
         rows.append(row)
-        previous = row
         if i in keep:
             trials[i] = trial
         if learn and hasattr(controller, "learn"):
@@ -229,7 +268,7 @@ def run_batch(
             any(not r["completed"] for r in rows)
             or first is None
             or last is None
-            or last > GROWTH_TOLERANCE * first + GROWTH_ALLOWANCE_UM
+            or _exceeds(last, first)
         ),
         "iterations": rows,
         "trials": trials,

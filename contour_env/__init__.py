@@ -1,6 +1,8 @@
 """contour_env: multi-axis CNC feed-drive contouring environments (SI units throughout).
 
-Importing the package registers ``contour_env/Contouring-v0`` with Gymnasium.
+Importing the package registers ``contour_env/Contouring-v0`` with Gymnasium. Made with no
+case, plant or path (``gym.make("contour_env/Contouring-v0")``) it is the default case
+:data:`DEFAULT_CASE`, the command line's default too.
 """
 
 from gymnasium.envs.registration import register, registry
@@ -11,6 +13,9 @@ from .kernel_cache import refresh_stale_caches
 refresh_stale_caches()
 
 ENV_ID = "contour_env/Contouring-v0"
+# the case of an env made without case, plant or path, and of the command line without --case
+# (Lee 2012 case II); resolved in contour_env.cases.build_setup
+DEFAULT_CASE = "hsm2-circle-II"
 
 if ENV_ID not in registry:
     register(
@@ -21,4 +26,4 @@ if ENV_ID not in registry:
     )
 
 __version__ = "0.1.0"
-__all__ = ["ENV_ID", "__version__"]
+__all__ = ["DEFAULT_CASE", "ENV_ID", "__version__"]

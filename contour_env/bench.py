@@ -6,6 +6,11 @@ the median of ``repeats`` timing windows, and the windows of contour_env and of 
 alternate: both see the same machine. Every window of contour_env covers whole episodes
 (start-up, cruise, reversals, stop), so no phase of the motion is over- or under-sampled. The
 JSON report keeps every window's rate.
+
+A window lasts ``seconds / repeats`` or one whole episode, whichever is longer: at 4096 envs
+one episode of the default case is 8 M env-steps, so the full benchmark takes a minute or
+more whatever ``seconds`` says. ``quick=True`` (``contour-env bench --quick``) is a first
+look in well under 30 s: one window per figure, 0.3 s, 1, 64 and 1024 envs.
 """
 
 from __future__ import annotations
@@ -18,10 +23,15 @@ import time
 import gymnasium as gym
 import numpy as np
 
-from . import ENV_ID
+from . import DEFAULT_CASE, ENV_ID
 
 VECTOR_SIZES = (1, 64, 1024, 4096)
 DEFAULT_REPEATS = 5
+DEFAULT_SECONDS = 2.0
+# --quick: one short window per figure, no 4096-env figure (its one episode alone is 8 M steps)
+QUICK_SIZES = (1, 64, 1024)
+QUICK_REPEATS = 1
+QUICK_SECONDS = 0.3
 
 
 def _time_single(env, actions: np.ndarray, min_seconds: float) -> float:
@@ -88,20 +98,30 @@ def tracking_actions(case: str, n_steps: int, bandwidth_rad_s: float = 60.0) -> 
 
 
 def run_bench(
-    case: str = "hsm2-circle-II",
+    case: str = DEFAULT_CASE,
     *,
-    seconds: float = 2.0,
-    sizes=VECTOR_SIZES,
-    repeats: int = DEFAULT_REPEATS,
+    seconds: float | None = None,
+    sizes=None,
+    repeats: int | None = None,
+    quick: bool = False,
     progress=None,
 ) -> dict:
     """Measure throughput with the actions of :func:`tracking_actions` replayed (the policy's
     own cost is not part of the measurement, as for CartPole's random actions).
 
     ``seconds``: measuring time per figure, split into ``repeats`` alternating windows (each
-    at least one whole episode); the figure is the median window rate.
+    at least one whole episode); the figure is the median window rate. ``sizes``: the vector
+    env sizes. Defaults: 2 s, 5 windows, 1/64/1024/4096 envs; with ``quick`` 0.3 s, one
+    window, 1/64/1024 envs (an explicit argument still wins).
     """
     import contour_env  # noqa: F401  (registers the env)
+
+    if seconds is None:
+        seconds = QUICK_SECONDS if quick else DEFAULT_SECONDS
+    if repeats is None:
+        repeats = QUICK_REPEATS if quick else DEFAULT_REPEATS
+    if sizes is None:
+        sizes = QUICK_SIZES if quick else VECTOR_SIZES
 
     if not (isinstance(repeats, int) and repeats >= 1):
         raise ValueError(f"repeats: must be an integer >= 1, got {repeats!r}")
@@ -114,6 +134,8 @@ def run_bench(
         "action": "recorded commands of a feedforward + PD tracking servo, replayed",
         "statistic": f"median of {repeats} windows alternating with CartPole-v1's",
         "repeats": repeats,
+        "seconds": seconds,
+        "quick": bool(quick),
         "python": platform.python_version(),
         "cpu_count": os.cpu_count(),
     }

@@ -1,22 +1,26 @@
 """Named benchmark cases (REFERENCE §4) as data, and the setup shared by every env of a case:
 plant, path, feed profile and the per-step reference table.
 
-Choices the papers leave open are documented per case in ``notes``.
+Choices the papers leave open are documented per case in ``notes``. The numbers in a note
+(radius, feed, centripetal acceleration, the feed profile's limits, angles, durations, step
+counts, the payload's and the plant's factors) are computed from the case's own setup when the
+module is imported (:func:`case_facts`), never typed, so a note cannot disagree with its case.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
 
+from . import DEFAULT_CASE
 from .paths import FeedProfile, PathGeometry, ReferenceTrajectory, circle, polyline
 from .paths.gcode import parse_gcode, read_gcode
 from .plants import Plant
-from .plants.catalog import PLANT_ALIASES
+from .plants.catalog import PLANT_ALIASES, nominal_params
 
 GCODE_SUFFIXES = (".nc", ".gcode", ".ngc", ".tap")
 
@@ -32,6 +36,7 @@ class CaseSpec:
     max_accel_m_s2: float
     max_jerk_m_s3: float
     settle_time_s: float
+    # a template: ``{fact}`` fields are filled from case_facts(spec) when the case is added
     notes: str
     published: str = ""
     # per-axis factors true = nominal × factor replacing the realistic mismatch of those fields
@@ -42,15 +47,139 @@ class CaseSpec:
 CASES: dict[str, CaseSpec] = {}
 
 
+def _build_path(desc: dict) -> PathGeometry:
+    kind = desc["kind"]
+    if kind == "circle":
+        return circle(
+            desc["center"],
+            desc["radius"],
+            normal=desc["normal"],
+            start_angle=desc["start_angle"],
+            sweep=desc["sweep"],
+        )
+    if kind == "polyline":
+        return polyline(np.asarray(desc["points"], dtype=np.float64))
+    raise ValueError(f"path kind {kind!r} unknown")
+
+
+def _num(x: float) -> str:
+    """A number as the notes print it: %g, with a true minus sign."""
+    return f"{x:g}".replace("-", "−")
+
+
+def _signed(x: float) -> str:
+    return _num(x) if x < 0 else f"+{x:g}"
+
+
+def _grouped(n: int) -> str:
+    """An integer in groups of three digits: 630 000."""
+    return f"{n:,}".replace(",", " ")
+
+
+def _per_axis(values) -> str:
+    return "/".join(_num(float(v)) for v in values)
+
+
+def case_facts(spec: CaseSpec) -> dict:
+    """The numbers a case's notes quote, computed from its setup (SI values as formatted text).
+
+    Every case: ``feed`` (m/s), ``feed_mm_s``, ``feed_m_min``, ``accel`` and ``jerk`` (the
+    feed profile's limits), ``settle`` (s), ``servo_ms`` (the plant's servo period),
+    ``episode_s`` (the feed profile's duration plus the settle time) and ``steps`` (servo
+    periods in an episode: the reference has ceil(episode / T) + 1 samples, an episode steps
+    from the first to the last). Circles: ``r`` (m), ``r_mm``, ``centripetal`` (v²/r, m/s²,
+    two decimals), ``start_deg``, ``end_deg``, ``sweep_deg``, ``tilt_deg`` (of the plane from
+    the xy-plane), ``normal`` (the plane's normal ∝ a small integer vector when it is one),
+    ``arc_s`` (the arc at the feed, no ramps), ``rev_s`` and ``rev_steps`` (a full revolution
+    at the feed) and ``x_reversal_deg`` (where the x axis reverses, if it does on the arc).
+    Polylines: ``legs_mm`` (segment lengths) and ``corner_deg`` (direction changes). A payload
+    (``true_scale``) adds ``mass_scale``, ``mass_short_pct`` (what a nominal-mass model lacks,
+    in % of the nominal mass); the plant adds ``mass_mismatch`` (the realistic true/nominal
+    mass factors) and ``mode_hz`` (the two-mass mode frequencies).
+    """
+    params, effects = nominal_params(spec.plant)
+    T = float(params.servo_period_s)
+    geometry = _build_path(spec.path)
+    profile = FeedProfile.build(
+        geometry,
+        spec.feedrate_m_s,
+        max_accel_m_s2=spec.max_accel_m_s2,
+        max_jerk_m_s3=spec.max_jerk_m_s3,
+    )
+    episode = profile.duration + spec.settle_time_s
+    f = spec.feedrate_m_s
+    facts = {
+        "feed": _num(f),
+        "feed_mm_s": _num(round(f * 1e3, 9)),
+        "feed_m_min": _num(round(f * 60.0, 9)),
+        "accel": _num(spec.max_accel_m_s2),
+        "jerk": _num(spec.max_jerk_m_s3),
+        "settle": _num(spec.settle_time_s),
+        "servo_ms": _num(T * 1e3),
+        "episode_s": f"{episode:.1f}",
+        "steps": _grouped(math.ceil(episode / T - 1e-9)),
+        "mass_mismatch": _per_axis(effects.mismatch.get("mass_kg", ())),
+        "mode_hz": _per_axis(effects.structural_mode_hz),
+    }
+    desc = spec.path
+    if desc["kind"] == "circle":
+        r, start, sweep = desc["radius"], desc["start_angle"], desc["sweep"]
+        normal = np.asarray(desc["normal"], dtype=float)
+        normal = normal / np.linalg.norm(normal)
+        smallest = np.min(np.abs(normal[np.abs(normal) > 1e-12]))
+        ints = normal / smallest
+        normal_text = (
+            "(" + ", ".join(f"{int(round(x))}" for x in ints) + ")"
+            if np.allclose(ints, np.round(ints), atol=1e-9)
+            else "(" + ", ".join(f"{x:.3g}" for x in normal) + ")"
+        )
+        s = np.linspace(0.0, geometry.total_length, 20001)
+        vx = geometry.evaluate(s)["d1"][:, 0]
+        flips = np.nonzero((vx[1:] * vx[:-1] <= 0) & (np.abs(vx[1:]) + np.abs(vx[:-1]) > 0))[0]
+        facts.update(
+            r=_num(r),
+            r_mm=_num(round(r * 1e3, 9)),
+            centripetal=f"{f**2 / r:.2f}",
+            start_deg=_signed(round(math.degrees(start), 6)),
+            end_deg=_signed(round(math.degrees(start + sweep), 6)),
+            sweep_deg=_num(round(math.degrees(sweep), 6)),
+            tilt_deg=_num(round(math.degrees(math.acos(min(1.0, abs(normal[2])))), 6)),
+            normal=normal_text,
+            arc_s=f"{r * sweep / f:.1f}",
+            rev_s=f"{2 * math.pi * r / f:.0f}",
+            rev_steps=_grouped(round(2 * math.pi * r / f / T)),
+            x_reversal_deg=(
+                _num(round(math.degrees(start + s[flips[0]] / r)) + 0.0) if len(flips) else "none"
+            ),
+        )
+    elif desc["kind"] == "polyline":
+        pts = np.asarray(desc["points"], dtype=float)
+        legs = np.diff(pts, axis=0)
+        lengths = np.linalg.norm(legs, axis=1)
+        unit = legs / lengths[:, None]
+        turns = np.degrees(np.arccos(np.clip(np.sum(unit[1:] * unit[:-1], axis=1), -1, 1)))
+        facts.update(
+            legs_mm=_per_axis(np.unique(np.round(lengths * 1e3, 6))),
+            corner_deg=_per_axis(np.round(turns, 6)),
+        )
+    mass_scale = spec.true_scale.get("mass_kg")
+    if mass_scale is not None:
+        facts.update(
+            mass_scale=_per_axis(sorted(set(mass_scale))),
+            mass_short_pct=_per_axis(sorted({round((m - 1) * 100, 6) for m in mass_scale})),
+        )
+    return facts
+
+
 def _add(spec: CaseSpec) -> None:
-    CASES[spec.name] = spec
+    CASES[spec.name] = replace(spec, notes=spec.notes.format(**case_facts(spec)))
 
 
 _HSM2_NOTES = (
-    "Lee 2012 Table 1 case {case}: circle of radius {r} m at {f} m/s ({a:.2f} m/s² centripetal), "
-    "centre (0, 0), start at the bottom (0, −r), counter-clockwise, one revolution. The paper "
-    "does not give the start-up: we ramp with the cosine S-curve (a ≤ 2 m/s², jerk ≤ 40 m/s³) "
-    "and stop at the start point; settle 0.1 s."
+    "Lee 2012 Table 1 case {case}: circle of radius {{r}} m at {{feed}} m/s ({{centripetal}} m/s² "
+    "centripetal), centre (0, 0), start at the bottom (0, −r), counter-clockwise, one "
+    "revolution. The paper does not give the start-up: we ramp with the cosine S-curve "
+    "(a ≤ {{accel}} m/s², jerk ≤ {{jerk}} m/s³) and stop at the start point; settle {{settle}} s."
 )
 for _case, _r, _f, _pub in (
     ("I", 0.1, 0.2, "max/RMS µm: PD 119/43, CCC 46/15, adaptive CCC 63/12"),
@@ -73,7 +202,7 @@ for _case, _r, _f, _pub in (
             max_accel_m_s2=2.0,
             max_jerk_m_s3=40.0,
             settle_time_s=0.1,
-            notes=_HSM2_NOTES.format(case=_case, r=_r, f=_f, a=_f**2 / _r),
+            notes=_HSM2_NOTES.format(case=_case),
             published=_pub,
         )
     )
@@ -88,14 +217,14 @@ _add(
         max_jerk_m_s3=40.0,
         settle_time_s=0.1,
         notes=(
-            "Lee 2012 case II's path (circle r = 0.1 m at 0.4 m/s, start at the bottom, "
+            "Lee 2012 case II's path (circle r = {r} m at {feed} m/s, start at the bottom, "
             "counter-clockwise, the same cosine S-curve and settle as hsm2-circle-II) on hsm2 "
-            "carrying a payload: the true x and y masses are 1.3× the nominal model's (this "
-            "replaces the realistic plant's mass mismatch 1.08/0.94; every other realistic "
-            "effect is kept; with ideal=True the paper's model with 1.3× mass). Controllers "
-            "still get the nominal model, so a fixed model-based feedforward is 30 % short on "
-            "inertia: the case tests whether adaptation finds the mass. With structural_mode "
-            "the mode frequencies stay at 60/45 Hz."
+            "carrying a payload: the true x and y masses are {mass_scale}× the nominal model's "
+            "(this replaces the realistic plant's mass mismatch {mass_mismatch}; every other "
+            "realistic effect is kept; with ideal=True the paper's model with {mass_scale}× "
+            "mass). Controllers still get the nominal model, so a fixed model-based feedforward "
+            "is {mass_short_pct} % short on inertia: the case tests whether adaptation finds the "
+            "mass. With structural_mode the mode frequencies stay at {mode_hz} Hz."
         ),
         published="not in the paper (ours): a payload variant of case II",
         true_scale={"mass_kg": (1.3, 1.3)},
@@ -119,9 +248,10 @@ _add(
         max_jerk_m_s3=40.0,
         settle_time_s=0.1,
         notes=(
-            "Jee 2007: 3-D circle of radius 50 mm at 10 m/min. The paper's plane is not given: we "
-            "use the plane normal to (1, 1, 1) so all three axes move; one revolution, cosine "
-            "S-curve start/stop (a ≤ 2 m/s², jerk ≤ 40 m/s³), settle 0.1 s."
+            "Jee 2007: 3-D circle of radius {r_mm} mm at {feed_m_min} m/min. The paper's plane is "
+            "not given: we use the plane normal to {normal} so all three axes move; one "
+            "revolution, cosine S-curve start/stop (a ≤ {accel} m/s², jerk ≤ {jerk} m/s³), "
+            "settle {settle} s."
         ),
         published=(
             "design goal: contour error ≤ 25 µm with tracking error ≤ 250 µm; 0 ≤ K_P ≤ 16.64"
@@ -146,12 +276,13 @@ _add(
         max_jerk_m_s3=10.0,
         settle_time_s=0.05,
         notes=(
-            "Chen & Lee 2020: circle r = 0.5 m inclined 30° about x, 0.05 m/s, T = 0.1 ms. "
-            "A full revolution takes 63 s (630 000 steps); the paper does not fix the span, so "
-            "the case is the 90° arc from −45° to +45° (7.9 s): it contains the x-axis velocity "
-            "reversal at 0°, where Stribeck friction and ripple matter most. Cosine S-curve "
-            "start/stop "
-            "(a ≤ 0.5 m/s², jerk ≤ 10 m/s³), settle 0.05 s."
+            "Chen & Lee 2020: circle r = {r} m inclined {tilt_deg}° about x, {feed} m/s, "
+            "T = {servo_ms} ms. A full revolution takes {rev_s} s ({rev_steps} steps); the paper "
+            "does not fix the span, so the case is the {sweep_deg}° arc from {start_deg}° to "
+            "{end_deg}° ({arc_s} s at the feed; the episode, with start-up, stop and settle, "
+            "{episode_s} s, {steps} steps): it contains the x-axis velocity reversal at "
+            "{x_reversal_deg}°, where Stribeck friction and ripple matter most. Cosine S-curve "
+            "start/stop (a ≤ {accel} m/s², jerk ≤ {jerk} m/s³), settle {settle} s."
         ),
         published="(simulation) adaptation reduces the max contour error under friction and ripple",
     )
@@ -167,10 +298,11 @@ _add(
         max_jerk_m_s3=10.0,
         settle_time_s=0.1,
         notes=(
-            "Simba 2018 sharp-corner test on the friction table: two 30 mm straight segments "
-            "meeting at a 90° corner, 20 mm/s (1.2 m/min). The tool stops exactly at the "
-            "corner (cosine S-curve, a ≤ 0.5 m/s², jerk ≤ 10 m/s³), so the error there comes "
-            "from friction, stick–slip and the disturbance; settle 0.1 s."
+            "Simba 2018 sharp-corner test on the friction table: two {legs_mm} mm straight "
+            "segments meeting at a {corner_deg}° corner, {feed_mm_s} mm/s ({feed_m_min} m/min). "
+            "The tool stops exactly at the corner (cosine S-curve, a ≤ {accel} m/s², jerk ≤ "
+            "{jerk} m/s³), so the error there comes from friction, stick–slip and the "
+            "disturbance; settle {settle} s."
         ),
         published="VILCFD lowers the max contour error by about 37 % against conventional ILC",
     )
@@ -187,24 +319,13 @@ def get_case(name: str) -> CaseSpec:
     return CASES[name]
 
 
-def _build_path(desc: dict) -> PathGeometry:
-    kind = desc["kind"]
-    if kind == "circle":
-        return circle(
-            desc["center"],
-            desc["radius"],
-            normal=desc["normal"],
-            start_angle=desc["start_angle"],
-            sweep=desc["sweep"],
-        )
-    if kind == "polyline":
-        return polyline(np.asarray(desc["points"], dtype=np.float64))
-    raise ValueError(f"path kind {kind!r} unknown")
-
-
 @dataclass(frozen=True)
 class Setup:
-    """Everything an env needs that does not change between episodes."""
+    """Everything an env needs that does not change between episodes.
+
+    ``segment_is_rapid`` (per path segment) and ``step_is_rapid`` (per reference step,
+    :func:`rapid_steps`): read-only bool arrays for a G-code program with rapid (G00) moves,
+    None for any other path (no rapids)."""
 
     name: str
     plant: Plant
@@ -215,6 +336,19 @@ class Setup:
     max_accel_m_s2: float
     notes: str = ""
     extra: dict = field(default_factory=dict)
+    segment_is_rapid: np.ndarray | None = None
+    step_is_rapid: np.ndarray | None = None
+
+
+def rapid_steps(path: PathGeometry, segment_is_rapid, arc_length) -> np.ndarray:
+    """Per reference sample (arc lengths ``arc_length``, m): True where the reference lies on a
+    rapid move, i.e. on a segment flagged in ``segment_is_rapid``; a junction of a rapid and a
+    cutting move (where the reference stops) counts as cutting."""
+    flags = np.asarray(segment_is_rapid, dtype=bool).reshape(-1)
+    s = np.clip(np.asarray(arc_length, dtype=np.float64).reshape(-1), 0.0, path.total_length)
+    after = path.segment_index(s)  # a junction belongs to the next segment ...
+    before = np.clip(np.searchsorted(path.seg_s0, s, side="left") - 1, 0, path.n_segments - 1)
+    return flags[after] & flags[before]  # ... and, here, to the previous one too
 
 
 def _looks_like_gcode_text(text: str) -> bool:
@@ -244,10 +378,13 @@ def build_setup(
 ) -> Setup:
     """Resolve (case | plant + path) into a Setup. Cached for hashable arguments.
 
-    - ``case``: a named case; ``plant``/``path``/feed arguments override its parts.
+    - ``case``: a named case; ``plant``/``path``/feed arguments override its parts. With no
+      case, plant or path: the default case ``contour_env.DEFAULT_CASE`` (hsm2-circle-II).
     - ``path``: a PathGeometry, G-code text, or a ``.nc``/``.gcode``/``.ngc``/``.tap`` file.
     - ``plant``: a plant name or a mapping of custom parameters (see params_from_mapping).
     """
+    if case is None and plant is None and path is None:
+        case = DEFAULT_CASE
     if case is None and (plant is None or path is None):
         raise ValueError(
             "case: give a named case (case=...) or both plant=... and path=...; "
@@ -281,6 +418,7 @@ def _make_setup(
 ) -> Setup:
     spec = get_case(case) if case is not None else None
     segment_feeds = None
+    segment_is_rapid = None
     notes = spec.notes if spec else ""
     name = case or "custom"
     if path is None:
@@ -300,6 +438,8 @@ def _make_setup(
             program = parse_gcode(text)
             name = case or "gcode"
         geometry = program.path
+        if program.segment_is_rapid.any():
+            segment_is_rapid = program.segment_is_rapid.copy()
         if feedrate is None:
             # the program's own F words (per segment); an explicit feedrate overrides them
             segment_feeds = program.segment_feeds_m_s
@@ -355,6 +495,11 @@ def _make_setup(
     reference = ReferenceTrajectory.build(
         geometry, profile, plant_obj.servo_period_s, settle_time_s=float(settle_s)
     )
+    step_is_rapid = None
+    if segment_is_rapid is not None:
+        step_is_rapid = rapid_steps(geometry, segment_is_rapid, reference.arc_length)
+        segment_is_rapid.setflags(write=False)
+        step_is_rapid.setflags(write=False)
     return Setup(
         name=name,
         plant=plant_obj,
@@ -364,4 +509,6 @@ def _make_setup(
         feedrate_m_s=float(feedrate),
         max_accel_m_s2=float(accel),
         notes=notes,
+        segment_is_rapid=segment_is_rapid,
+        step_is_rapid=step_is_rapid,
     )

@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-DEFAULT_CASE = "hsm2-circle-II"
+from . import DEFAULT_CASE  # one default case: the CLI's and gym.make's
 
 
 def _add_target_args(p: argparse.ArgumentParser) -> None:
@@ -133,7 +133,7 @@ def cmd_run(args) -> int:
     if args.plot:
         plot_runs(
             {label: record},
-            core.ref_pav[:, 0, :],
+            setup.path,
             f"{setup.name} — {label}",
             args.plot,
             {label: metrics},
@@ -183,10 +183,13 @@ def cmd_compare(args) -> int:
             seed=args.seed,
             progress=tick,
             model=args.model,
+            traces=bool(args.plot),
             **kw,
         )
         bar.close()
     print(format_table(result, robust))
+    # the per-variation ε(t) traces are for the plot only (arrays, not JSON)
+    traces = {r["controller"]: r.pop("traces", None) for r in robust or []}
     records = result.pop("records")
     out = {
         "case": result["case"],
@@ -201,10 +204,19 @@ def cmd_compare(args) -> int:
         atomic_write_json(args.json, out)
         print(f"wrote {args.json}")
     if args.plot:
-        path_points = next(iter(records.values())).reference
+        from .cases import build_setup
+
+        keys = ("case", "plant", "path", "ideal", "feedrate_m_s")
+        path = build_setup(**{k: kw[k] for k in keys if k in kw}).path  # cached: compare's
         metrics = {r["controller"]: r for r in result["results"]}
+        rows = [{**r, "traces": traces.get(r["controller"])} for r in robust or []]
         plot_runs(
-            records, path_points, f"{result['case']} — {', '.join(names)}", args.plot, metrics
+            records,
+            path,
+            f"{result['case']} — {', '.join(names)}",
+            args.plot,
+            metrics,
+            rows or None,
         )
         print(f"wrote {args.plot}")
     return 0
@@ -346,6 +358,7 @@ def cmd_bench(args) -> int:
         args.case,
         seconds=args.seconds,
         repeats=args.repeats,
+        quick=args.quick,
         progress=lambda s: print(s, flush=True),
     )
     print(format_bench(res))
@@ -396,7 +409,11 @@ def build_parser() -> argparse.ArgumentParser:
         "agent for the plant (contour-env models)",
     )
     p.add_argument("--json", help="write the results as JSON to this file")
-    p.add_argument("--plot", help="write contour error vs time for all controllers (PNG)")
+    p.add_argument(
+        "--plot",
+        help="write a PNG: the path with each controller's contour error magnified, contour "
+        "and tracking error vs time, and with --randomize the spread over the variations",
+    )
     p.add_argument(
         "--randomize",
         type=float,
@@ -519,14 +536,24 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="steps/s of the single and the vectorised env")
     p.add_argument("--case", default=DEFAULT_CASE, help=f"case (default {DEFAULT_CASE})")
     p.add_argument(
-        "--seconds", type=float, default=2.0, help="measuring time per figure, s (default 2)"
+        "--seconds",
+        type=float,
+        default=None,
+        help="measuring time per figure, s (default 2; 0.3 with --quick); each window is at "
+        "least one whole episode, so large vector sizes take longer",
     )
     p.add_argument(
         "--repeats",
         type=int,
-        default=5,
+        default=None,
         help="timing windows per figure, alternating with CartPole's; the figure is their "
-        "median (default 5)",
+        "median (default 5; 1 with --quick)",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a first look in under 30 s: one 0.3 s window per figure, 1, 64 and 1024 envs "
+        "(no 4096)",
     )
     p.add_argument("--json", help="write the results as JSON to this file")
     p.set_defaults(func=cmd_bench)

@@ -1,5 +1,6 @@
-"""True contour error (unsigned shortest distance, m, from a point to the whole packed path)
-and task-frame error e = Fᵀ (x_d − x): numba scalar kernels and a validated vectorised API."""
+"""True contour error (unsigned shortest distance, m, from a point to the whole packed path),
+the nearest path point (foot point) and task-frame error e = Fᵀ (x_d − x): numba scalar
+kernels and a validated vectorised API."""
 
 from __future__ import annotations
 
@@ -16,9 +17,11 @@ __all__ = [
     "cubic_distance",
     "frame_error",
     "line_distance",
+    "nearest_points",
     "path_distance",
     "path_distance_with_index",
     "segment_distance",
+    "segment_foot",
     "task_frame_error",
     "true_contour_error",
 ]
@@ -496,6 +499,222 @@ def _distance_batch_parallel(seg_type, seg_data, seg_bounds, pts, out, n_chunks)
 
 
 # ----------------------------------------------------------------------------------------
+# nearest point (foot point) on the path
+# ----------------------------------------------------------------------------------------
+# The same minimisations as the distance kernels above, returning where the minimum is: the
+# foot point f of x on the path, with |x − f| equal to the true contour error. Kept apart
+# from the distance kernels, which stay free of the bookkeeping (they run every servo step).
+
+
+@_scalar_kernel
+def _helix_argmin(th0, sweep, r, pitch, a, b, h):
+    # τ of the minimum of _helix_f over τ between 0 and sweep: _helix_distance's search
+    tlo = min(0.0, sweep)
+    thi = max(0.0, sweep)
+    tc = h / pitch
+    ts = min(max(tc, tlo), thi)
+    best = _helix_f(ts, th0, r, pitch, a, b, h)
+    tbest = ts
+    half = math.sqrt(best) / abs(pitch)
+    half = half * (1.0 + 1e-12) + 1e-15 * (1.0 + abs(tc))
+    wlo = max(tlo, tc - half)
+    whi = min(thi, tc + half)
+    if wlo > whi:
+        return tbest
+    f = _helix_f(wlo, th0, r, pitch, a, b, h)
+    if f < best:
+        best = f
+        tbest = wlo
+    f = _helix_f(whi, th0, r, pitch, a, b, h)
+    if f < best:
+        best = f
+        tbest = whi
+    rho = math.hypot(a, b)
+    p2 = pitch * pitch
+    if r * rho <= p2:
+        if _helix_g(wlo, th0, r, pitch, a, b, h) < 0.0 < _helix_g(whi, th0, r, pitch, a, b, h):
+            tr = _helix_root(wlo, whi, th0, r, pitch, a, b, h)
+            f = _helix_f(tr, th0, r, pitch, a, b, h)
+            if f < best:
+                tbest = tr
+        return tbest
+    dr2 = (rho - r) * (rho - r)
+    phi = math.atan2(b, a)
+    alpha = math.acos(-p2 / (r * rho))
+    beta1 = phi - th0 - alpha
+    beta2 = phi - th0 + alpha
+    lo = wlo
+    glo = _helix_g(lo, th0, r, pitch, a, b, h)
+    while lo < whi:
+        hi = min(_next_break(lo, beta1), _next_break(lo, beta2), whi)
+        if hi <= lo:
+            hi = whi
+        ghi = _helix_g(hi, th0, r, pitch, a, b, h)
+        if glo <= 0.0 <= ghi and glo < ghi:
+            dz = pitch * min(max(tc, lo), hi) - h
+            if dr2 + dz * dz < best:
+                tr = _helix_root(lo, hi, th0, r, pitch, a, b, h)
+                f = _helix_f(tr, th0, r, pitch, a, b, h)
+                if f < best:
+                    best = f
+                    tbest = tr
+        lo = hi
+        glo = ghi
+    return tbest
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def _arc_foot_angle(data, px, py, pz):
+    # (θ of the nearest arc point, its height τ·pitch along w)
+    qx = px - data[0]
+    qy = py - data[1]
+    qz = pz - data[2]
+    a = qx * data[3] + qy * data[4] + qz * data[5]
+    b = qx * data[6] + qy * data[7] + qz * data[8]
+    h = qx * data[9] + qy * data[10] + qz * data[11]
+    r = data[12]
+    th0 = data[13]
+    sweep = data[14]
+    pitch = data[15]
+    if pitch != 0.0:
+        tau = _helix_argmin(th0, sweep, r, pitch, a, b, h)
+        return th0 + tau, pitch * tau
+    rho = math.sqrt(a * a + b * b)
+    if rho == 0.0:  # on the axis: every point is nearest; take the start
+        return th0, 0.0
+    inside = abs(sweep) >= TWO_PI
+    delta = math.atan2(b, a) - th0
+    if not inside:
+        if sweep < 0.0:
+            delta = -delta
+        delta = delta % TWO_PI
+        inside = delta <= abs(sweep)
+    if inside:
+        return math.atan2(b, a), 0.0
+    th1 = th0 + sweep
+    ex = r * math.cos(th0) - a
+    ey = r * math.sin(th0) - b
+    d0 = ex * ex + ey * ey
+    ex = r * math.cos(th1) - a
+    ey = r * math.sin(th1) - b
+    d1 = ex * ex + ey * ey
+    return (th0, 0.0) if d0 <= d1 else (th1, 0.0)
+
+
+@_scalar_kernel
+def _cubic_argmin(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
+    # q of the minimum of |P(q)|² on [0, 1]: _cubic_distance's search
+    d01 = a0x * a1x + a0y * a1y + a0z * a1z
+    d02 = a0x * a2x + a0y * a2y + a0z * a2z
+    d03 = a0x * a3x + a0y * a3y + a0z * a3z
+    d11 = a1x * a1x + a1y * a1y + a1z * a1z
+    d12 = a1x * a2x + a1y * a2y + a1z * a2z
+    d13 = a1x * a3x + a1y * a3y + a1z * a3z
+    d22 = a2x * a2x + a2y * a2y + a2z * a2z
+    d23 = a2x * a3x + a2y * a3y + a2z * a3z
+    d33 = a3x * a3x + a3y * a3y + a3z * a3z
+    g0 = d01
+    g1 = 2.0 * d02 + d11
+    g2 = 3.0 * (d03 + d12)
+    g3 = 4.0 * d13 + 2.0 * d22
+    g4 = 5.0 * d23
+    g5 = 3.0 * d33
+    x0 = _q5_root(24.0 * g4, 120.0 * g5, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+    h0, h1, h2 = 6.0 * g3, 24.0 * g4, 60.0 * g5
+    y0 = _q5_root(h0, h1, h2, 0.0, 0.0, 0.0, 0.0, x0, 0.0)
+    y1 = _q5_root(h0, h1, h2, 0.0, 0.0, 0.0, x0, 1.0, y0)
+    h0, h1, h2, h3 = 2.0 * g2, 6.0 * g3, 12.0 * g4, 20.0 * g5
+    z0 = _q5_root(h0, h1, h2, h3, 0.0, 0.0, 0.0, y0, 0.0)
+    z1 = _q5_root(h0, h1, h2, h3, 0.0, 0.0, y0, y1, z0)
+    z2 = _q5_root(h0, h1, h2, h3, 0.0, 0.0, y1, 1.0, z1)
+    h0, h1, h2, h3, h4 = g1, 2.0 * g2, 3.0 * g3, 4.0 * g4, 5.0 * g5
+    w0 = _q5_root(h0, h1, h2, h3, h4, 0.0, 0.0, z0, 0.0)
+    w1 = _q5_root(h0, h1, h2, h3, h4, 0.0, z0, z1, w0)
+    w2 = _q5_root(h0, h1, h2, h3, h4, 0.0, z1, z2, w1)
+    w3 = _q5_root(h0, h1, h2, h3, h4, 0.0, z2, 1.0, w2)
+    best = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, 0.0)
+    qbest = 0.0
+    f = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, 1.0)
+    if f < best:
+        best = f
+        qbest = 1.0
+    lo = 0.0
+    for k in range(5):
+        if k == 0:
+            hi = w0
+        elif k == 1:
+            hi = w1
+        elif k == 2:
+            hi = w2
+        elif k == 3:
+            hi = w3
+        else:
+            hi = 1.0
+        if hi > lo:
+            q = _q5_root(g0, g1, g2, g3, g4, g5, lo, hi, -1.0)
+            if q >= 0.0:
+                f = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, q)
+                if f < best:
+                    best = f
+                    qbest = q
+            lo = hi
+    return qbest
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def segment_foot(seg_type_i, data, px, py, pz):
+    """Nearest point (fx, fy, fz) of one segment of type ``seg_type_i`` to (px, py, pz), m:
+    where :func:`segment_distance` finds its minimum."""
+    if seg_type_i == SEG_LINE:
+        x0 = data[0]
+        y0 = data[1]
+        z0 = data[2]
+        dx = data[3] - x0
+        dy = data[4] - y0
+        dz = data[5] - z0
+        dd = dx * dx + dy * dy + dz * dz
+        q = 0.0
+        if dd > 0.0:
+            q = ((px - x0) * dx + (py - y0) * dy + (pz - z0) * dz) / dd
+            q = min(max(q, 0.0), 1.0)
+        return x0 + q * dx, y0 + q * dy, z0 + q * dz
+    if seg_type_i == SEG_ARC:
+        th, rise = _arc_foot_angle(data, px, py, pz)
+        c = data[12] * math.cos(th)
+        s = data[12] * math.sin(th)
+        return (
+            data[0] + c * data[3] + s * data[6] + rise * data[9],
+            data[1] + c * data[4] + s * data[7] + rise * data[10],
+            data[2] + c * data[5] + s * data[8] + rise * data[11],
+        )
+    q = _cubic_argmin(
+        data[0] - px, data[1] - py, data[2] - pz,
+        data[3], data[4], data[5], data[6], data[7], data[8], data[9], data[10], data[11],
+    )  # fmt: skip
+    return (
+        data[0] + q * (data[3] + q * (data[6] + q * data[9])),
+        data[1] + q * (data[4] + q * (data[7] + q * data[10])),
+        data[2] + q * (data[5] + q * (data[8] + q * data[11])),
+    )
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def _foot_batch(seg_type, seg_data, seg_bounds, pts, out):
+    hint = 0
+    for i in range(pts.shape[0]):
+        _, k = path_distance_with_index(
+            seg_type, seg_data, seg_bounds, pts[i, 0], pts[i, 1], pts[i, 2], hint
+        )
+        if k < 0:
+            k = 0
+        hint = k
+        fx, fy, fz = segment_foot(seg_type[k], seg_data[k], pts[i, 0], pts[i, 1], pts[i, 2])
+        out[i, 0] = fx
+        out[i, 1] = fy
+        out[i, 2] = fz
+
+
+# ----------------------------------------------------------------------------------------
 # Python API
 # ----------------------------------------------------------------------------------------
 
@@ -634,3 +853,34 @@ def task_frame_error(frame, reference, position):
     # e_j = Σ_i F[i, j] (x_d − x)_i
     e = np.einsum("kij,ki->kj", F[:, :d, :d], xd - x)
     return e[0] if single else e
+
+
+def nearest_points(path, points):
+    """Nearest point of the whole path (the foot point) to each point, m.
+
+    ``path``: any object with ``seg_type``, ``seg_data``, ``seg_bounds`` (e.g. PathGeometry);
+    ``points`` ``(n, d)`` or ``(d,)`` with d = 2 (z = 0) or 3. Returns the same shape as
+    ``points`` (the foot's first d coordinates; for d = 2 the path is meant to lie in z = 0).
+    The foot lies on the segment :func:`true_contour_error` finds nearest, where that
+    segment's distance is smallest, so |point − foot| is the true contour error (to rounding)
+    and point − foot is the contour-error vector. Where several points of the path are
+    equally near (the centre of a circle), one of them.
+    """
+    if not _is_path(path):
+        raise ValueError("nearest_points: path must have seg_type, seg_data, seg_bounds")
+    st, sd, sb = _validate_table(path.seg_type, path.seg_data, path.seg_bounds)
+    pts = _as_float_array(points, "points")
+    single = pts.ndim == 1
+    if single:
+        pts = pts[None, :]
+    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
+        raise ValueError(
+            f"points must have shape (n, 2), (n, 3), (2,) or (3,), got {np.shape(points)}"
+        )
+    _check_finite(pts, "points")
+    d = pts.shape[1]
+    pts3 = np.zeros((pts.shape[0], 3))
+    pts3[:, :d] = pts
+    out = np.empty_like(pts3)
+    _foot_batch(st, sd, sb, pts3, out)
+    return out[0, :d] if single else out[:, :d]

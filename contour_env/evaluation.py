@@ -65,6 +65,11 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) 
     sl = slice(0, n)
     force = rec["force"][sl]
     limit = core.setup.plant.params.force_limit_N
+    # rapid (G00) steps: the flag of the reference index each recorded step ended at
+    step_is_rapid = getattr(core.setup, "step_is_rapid", None)
+    rapid = None
+    if step_is_rapid is not None:
+        rapid = step_is_rapid[np.minimum(np.arange(1, n + 1), core.n_steps - 1)].copy()
     return EpisodeRecord(
         time=rec["time"][sl],
         contour_error=rec["contour_error"][sl],
@@ -77,6 +82,7 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) 
         termination_reason=reason,
         n_steps_planned=n_max,
         encoder_resolution_m=np.array(core.setup.plant.params.encoder_resolution_m, dtype=float),
+        rapid=rapid,
     )
 
 

@@ -4,7 +4,12 @@ Scoring window (the same for everyone): every step of the episode after reset, f
 servo period to the last (the whole feed profile, start-up and stop included, plus the settle
 time). The reference starts from rest with a jerk-bounded S-curve, so there is no step
 transient to exclude. If the episode ended early (crash guard), the steps that were run are
-scored and ``completed`` is False.
+scored and ``completed`` is False. A program with rapid (G00) moves is scored over its cutting
+moves (scope ``"cut"``, see :func:`score`).
+
+The contour error ε is the distance to the *whole* path, so a tool that never leaves the start
+point of a path has ε = 0: ``completed`` (:attr:`EpisodeRecord.completed`) is what tells a run
+that followed the program from one that did not.
 """
 
 from __future__ import annotations
@@ -13,6 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# A run "followed the program" (``completed``) only if its tracking error ‖x_d − x‖ never
+# exceeded FOLLOW_LIMIT_M and ended within END_TOLERANCE_M of the reference (the end point,
+# held during the settle time). FOLLOW_LIMIT_M is also the env's default tracking-error guard
+# (EnvConfig.abort_tracking_error_m). The largest tracking errors of the classical controllers
+# on the named cases are 0.6 mm (PD) and 3.1 mm (jee-ccc, jee-circle3d), the largest final
+# ones 0.12 mm (PD, sharp-corner, stuck by friction near the end point).
+FOLLOW_LIMIT_M = 10e-3
+END_TOLERANCE_M = 1e-3
+
 
 @dataclass
 class EpisodeRecord:
@@ -20,7 +34,10 @@ class EpisodeRecord:
 
     time (n,) s; contour_error (n,) m (true); tracking_error (n, d) m; force (n, d) N applied;
     saturated (n, d) bool; position, reference (n, d) m; force_limit (d,) N;
-    encoder_resolution_m (d,) m, the true plant's encoder count per axis (None: unknown).
+    encoder_resolution_m (d,) m, the true plant's encoder count per axis (None: unknown);
+    n_steps_planned: the episode's full length in steps (None: unknown); rapid (n,) bool, True
+    where the step's reference is on a rapid (G00) move (``Setup.step_is_rapid``; None: the
+    path has no rapids).
     """
 
     time: np.ndarray
@@ -34,10 +51,41 @@ class EpisodeRecord:
     termination_reason: str | None = None
     n_steps_planned: int | None = None
     encoder_resolution_m: np.ndarray | None = None
+    rapid: np.ndarray | None = None
+
+    @property
+    def incomplete_reason(self) -> str | None:
+        """Why the run did not follow the program (None: it did). The first that applies:
+        the env terminated it (its ``termination_reason``); it stopped before the planned
+        number of steps; its tracking error ‖x_d − x‖ exceeded :data:`FOLLOW_LIMIT_M`
+        (10 mm, or was not finite); it ended more than :data:`END_TOLERANCE_M` (1 mm) from the
+        reference's last point."""
+        if self.termination_reason is not None:
+            return f"terminated: {self.termination_reason}"
+        n = len(self.contour_error)
+        if self.n_steps_planned is not None and n < self.n_steps_planned:
+            return f"stopped after {n} of {self.n_steps_planned} steps"
+        if n == 0:
+            return "no steps"
+        te = np.asarray(self.tracking_error, dtype=np.float64).reshape(n, -1)
+        te = np.linalg.norm(te, axis=1)
+        worst = float(np.max(te))
+        if not worst <= FOLLOW_LIMIT_M:  # also NaN
+            return (
+                f"did not follow the reference: tracking error {worst * 1e3:.3g} mm > "
+                f"{FOLLOW_LIMIT_M * 1e3:g} mm"
+            )
+        if not te[-1] <= END_TOLERANCE_M:
+            return (
+                f"did not reach the end: {te[-1] * 1e3:.3g} mm from the reference's last point "
+                f"> {END_TOLERANCE_M * 1e3:g} mm"
+            )
+        return None
 
     @property
     def completed(self) -> bool:
-        return self.termination_reason is None
+        """True only for a run that followed the program (see :attr:`incomplete_reason`)."""
+        return self.incomplete_reason is None
 
 
 def _rms(x: np.ndarray, axis=0) -> np.ndarray:
@@ -91,14 +139,31 @@ def format_um(value_um, resolution_um=None, spec: str = ".2f") -> str:
 def score(record: EpisodeRecord) -> dict:
     """Metrics of one episode (µm for errors, N — or the plant's command unit — for effort).
 
-    Keys: ``max_contour_error_um``, ``rms_contour_error_um``, ``mean_abs_contour_error_um``,
-    ``max_tracking_error_um`` [per axis], ``rms_tracking_error_um`` [per axis], ``rms_effort``
-    [per axis], ``peak_effort`` [per axis], ``saturation_fraction`` (share of steps with any
-    axis saturated), ``n_steps``, ``duration_s``, ``completed``, ``termination_reason``,
-    ``encoder_resolution_um`` (the coarsest axis's encoder count, µm), ``below_resolution``
-    (RMS contour error below one count) and ``max_below_resolution`` (max contour error below
-    one count) — see :func:`resolution_fields`. Non-finite samples (a diverged run) are
-    reported as ``None`` rather than NaN.
+    Keys: ``max_contour_error_um``, ``rms_contour_error_um``, ``mean_abs_contour_error_um``
+    (the headline figures, over the steps of ``scope``), ``max_tracking_error_um`` [per axis],
+    ``rms_tracking_error_um`` [per axis], ``rms_effort`` [per axis], ``peak_effort`` [per axis],
+    ``saturation_fraction`` (share of steps with any axis saturated), ``n_steps``,
+    ``duration_s``, ``completed``, ``incomplete_reason``, ``termination_reason``, ``scope``,
+    ``rapid_max_contour_error_um``, ``rapid_rms_contour_error_um``, ``encoder_resolution_um``
+    (the coarsest axis's encoder count, µm), ``below_resolution`` (RMS contour error below one
+    count) and ``max_below_resolution`` (max contour error below one count) — see
+    :func:`resolution_fields`. Non-finite samples (a diverged run) are reported as ``None``
+    rather than NaN.
+
+    ``completed`` is True only for a run that followed the program: not terminated by the
+    env, every planned step run, the tracking error ‖x_d − x‖ never above
+    :data:`FOLLOW_LIMIT_M` (10 mm) and at the end within :data:`END_TOLERANCE_M` (1 mm) of the
+    reference's last point. Otherwise ``incomplete_reason`` says why
+    (:attr:`EpisodeRecord.incomplete_reason`). A tool that stands still has ε = 0 (the start
+    point is on the path) but is not ``completed``.
+
+    ``scope``: ``"cut"`` when the record has a rapid mask (``record.rapid``, set for a G-code
+    program with G00 moves; a step is rapid when its reference lies on a rapid move, a
+    junction with a cutting move counting as cutting): the headline contour-error figures are
+    then over the cutting steps only, and ``rapid_max_contour_error_um`` /
+    ``rapid_rms_contour_error_um`` over the rapid steps (each None where no such step ran).
+    ``"all"`` otherwise: headline over every step, rapid figures None. Tracking error, effort,
+    saturation and ``completed`` are always over every step.
     """
     eps = np.asarray(record.contour_error, dtype=np.float64)
     n = eps.shape[0]
@@ -114,10 +179,29 @@ def score(record: EpisodeRecord) -> dict:
             return float(x) if np.isfinite(x) else None
         return [float(v) if np.isfinite(v) else None for v in x]
 
+    rapid = None
+    if record.rapid is not None:
+        rapid = np.asarray(record.rapid, dtype=bool).reshape(-1)
+        if rapid.shape != (n,):
+            raise ValueError(f"record.rapid: one flag per step ({n}), got {rapid.shape[0]}")
+    head = eps if rapid is None else eps[~rapid]
+    fast = eps[rapid] if rapid is not None else eps[:0]
+
+    def stats(x):
+        if x.size == 0:
+            return None, None, None
+        return (
+            clean(np.max(np.abs(x)) * 1e6),
+            clean(_rms(x) * 1e6),
+            clean(np.mean(np.abs(x)) * 1e6),
+        )
+
+    head_max, head_rms, head_mean = stats(head)
+    rapid_max, rapid_rms, _ = stats(fast)
     m = {
-        "max_contour_error_um": clean(np.max(np.abs(eps)) * 1e6),
-        "rms_contour_error_um": clean(_rms(eps) * 1e6),
-        "mean_abs_contour_error_um": clean(np.mean(np.abs(eps)) * 1e6),
+        "max_contour_error_um": head_max,
+        "rms_contour_error_um": head_rms,
+        "mean_abs_contour_error_um": head_mean,
         "max_tracking_error_um": clean(np.max(np.abs(te), axis=0) * 1e6),
         "rms_tracking_error_um": clean(_rms(te) * 1e6),
         "rms_effort": clean(_rms(f)),
@@ -126,7 +210,11 @@ def score(record: EpisodeRecord) -> dict:
         "n_steps": int(n),
         "duration_s": float(record.time[-1]) if n else 0.0,
         "completed": record.completed,
+        "incomplete_reason": record.incomplete_reason,
         "termination_reason": record.termination_reason,
+        "scope": "all" if rapid is None else "cut",
+        "rapid_max_contour_error_um": rapid_max,
+        "rapid_rms_contour_error_um": rapid_rms,
     }
     m.update(resolution_fields(m, record.encoder_resolution_m))
     return m

@@ -2,7 +2,7 @@
 
     python scripts/ilc_benchmark.py [--iterations 10] [--cases sharp-corner,hsm2-circle-II]
         [--controllers ilc-pd,ilc-contour,vilcfd] [--conditions repeatable,random]
-        [--noise 5e-8] [--seeds 1] [--tuning] [--json OUT]
+        [--noise 5e-8] [--seeds 1] [--tuning] [--json OUT] [--markdown]
 
 For every case, condition and learning controller: max/RMS contour error of the first trial
 and of trial N (the project's one scoring function, :func:`contour_env.metrics.score`), and
@@ -18,12 +18,14 @@ sign. Conditions:
 Trial i of seed s runs with seed 1000 s + i − 1; ``--seeds`` averages over seeds (the random
 condition differs per seed, the repeatable one does not). ``--tuning`` runs the two corners
 the controllers' defaults were chosen on instead of ``--cases`` (:func:`tuning_paths`: never
-the scored ``sharp-corner``). The JSON (written atomically) holds the rows and comparisons.
+the scored ``sharp-corner``). The JSON (written atomically) holds the rows and comparisons;
+``--markdown`` also prints the README's table (:func:`format_markdown`).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
 
 import gymnasium as gym
@@ -147,28 +149,11 @@ def _fmt(x, width: int, resolution_um=None) -> str:
     return f"{format_um(x, resolution_um, '.3f'):>{width}s}"
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--iterations", type=int, default=10)
-    ap.add_argument("--cases", default="sharp-corner,hsm2-circle-II")
-    ap.add_argument("--controllers", default=",".join(LEARNING_CONTROLLERS))
-    ap.add_argument("--conditions", default=",".join(CONDITIONS))
-    ap.add_argument("--noise", type=float, default=DEFAULT_NOISE_M, metavar="STD_M")
-    ap.add_argument("--seeds", type=int, default=1)
-    ap.add_argument("--tuning", action="store_true", help="run the tuning corners instead")
-    ap.add_argument("--json")
-    args = ap.parse_args(argv)
-    if args.iterations < 1 or args.seeds < 1:
-        ap.error("--iterations and --seeds must be >= 1")
-    n = args.iterations
-    cases = list(tuning_paths()) if args.tuning else args.cases.split(",")
-    conditions = args.conditions.split(",")
-    for c in conditions:
-        if c not in CONDITIONS:
-            ap.error(f"--conditions: one of {', '.join(CONDITIONS)}, got {c!r}")
-    names = args.controllers.split(",")
+def run_benchmark(cases, conditions, names, n, seeds, noise_m, log=print):
+    """Every (case, condition, controller) row and ``vilcfd``'s comparisons with each pure ILC
+    law, printed through ``log`` as they come; returns ``(rows, comparisons)``."""
     rows, comparisons = [], []
-    print(
+    log(
         f"{'case':16s} {'condition':10s} {'controller':12s} {'trial 1 max':>11s} "
         f"{'RMS':>8s} {f'trial {n} max':>12s} {'RMS':>8s}   (contour error, µm)"
     )
@@ -177,15 +162,14 @@ def main(argv=None) -> int:
         for cond in conditions:
             by_name = {}
             for name in names:
-                r = run(case, cond, name, n, args.seeds, args.noise)
+                r = run(case, cond, name, n, seeds, noise_m)
                 by_name[name] = r
                 rows.append(r)
                 res_um = r["encoder_resolution_um"]
-                print(
+                log(
                     f"{case:16s} {cond:10s} {name:12s} {_fmt(r['first_max_um'], 11, res_um)} "
                     f"{_fmt(r['first_rms_um'], 8, res_um)} {_fmt(r['last_max_um'], 12, res_um)} "
-                    f"{_fmt(r['last_rms_um'], 8, res_um)}",
-                    flush=True,
+                    f"{_fmt(r['last_rms_um'], 8, res_um)}"
                 )
             v = by_name.get("vilcfd")
             for other in PURE_ILC:
@@ -203,12 +187,76 @@ def main(argv=None) -> int:
                     "rms_change_percent": 100.0 * (v["last_rms_um"] / o["last_rms_um"] - 1.0),
                 }
                 comparisons.append(comp)
-                print(
+                log(
                     f"{'':16s} {'':10s} vilcfd at trial {n} against {other}: max "
                     f"{v['last_max_um']:.3f} vs {o['last_max_um']:.3f} µm ({comp['max']}), "
                     f"RMS {v['last_rms_um']:.3f} vs {o['last_rms_um']:.3f} µm ({comp['rms']})"
                 )
-    print(f"({time.time() - t0:.0f} s)")
+    log(f"({time.time() - t0:.0f} s)")
+    return rows, comparisons
+
+
+def _md_um(x, resolution_um=None) -> str:
+    """A table figure: 4 significant digits, at most 3 decimals (98.63, 2.713, 0.803),
+    ``≤R (enc)`` below one encoder count, ``failed`` for a trial without metrics."""
+    if x is None:
+        return "failed"
+    decimals = min(3, max(0, 3 - math.floor(math.log10(abs(x))))) if x else 3
+    return format_um(x, resolution_um, f".{decimals}f")
+
+
+def format_markdown(rows: list[dict], iterations: int) -> str:
+    """The rows as the README's markdown table (case and condition written once per group)."""
+    lines = [
+        f"| case | condition | law | trial 1 max / RMS | trial {iterations} max / RMS |",
+        "|---|---|---|---|---|",
+    ]
+    last = None
+    for r in rows:
+        group = (r["case"], r["condition"])
+        case, cond = ("", "") if group == last else group
+        last = group
+        res = r["encoder_resolution_um"]
+        cells = [
+            case,
+            cond,
+            r["controller"],
+            f"{_md_um(r['first_max_um'], res)} / {_md_um(r['first_rms_um'], res)}",
+            f"{_md_um(r['last_max_um'], res)} / {_md_um(r['last_rms_um'], res)}",
+        ]
+        lines.append("|" + "|".join(f" {c} " if c else " " for c in cells) + "|")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--iterations", type=int, default=10)
+    ap.add_argument("--cases", default="sharp-corner,hsm2-circle-II")
+    ap.add_argument("--controllers", default=",".join(LEARNING_CONTROLLERS))
+    ap.add_argument("--conditions", default=",".join(CONDITIONS))
+    ap.add_argument("--noise", type=float, default=DEFAULT_NOISE_M, metavar="STD_M")
+    ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--tuning", action="store_true", help="run the tuning corners instead")
+    ap.add_argument("--json")
+    ap.add_argument(
+        "--markdown", action="store_true", help="also print the rows as the README's table"
+    )
+    args = ap.parse_args(argv)
+    if args.iterations < 1 or args.seeds < 1:
+        ap.error("--iterations and --seeds must be >= 1")
+    n = args.iterations
+    cases = list(tuning_paths()) if args.tuning else args.cases.split(",")
+    conditions = args.conditions.split(",")
+    for c in conditions:
+        if c not in CONDITIONS:
+            ap.error(f"--conditions: one of {', '.join(CONDITIONS)}, got {c!r}")
+    names = args.controllers.split(",")
+    rows, comparisons = run_benchmark(
+        cases, conditions, names, n, args.seeds, args.noise, log=lambda s: print(s, flush=True)
+    )
+    if args.markdown:
+        print()
+        print(format_markdown(rows, n))
     if args.json:
         atomic_write_json(
             args.json,

@@ -23,7 +23,9 @@ def test_cases_lists_every_named_case(capsys):
 
 def test_run_writes_json_and_plot(tmp_path, capsys):
     js, png = tmp_path / "r.json", tmp_path / "r.png"
-    assert main(["run", "--case", "hsm2-circle-III", "--json", str(js), "--plot", str(png)]) == 0
+    # PD: the zero command would be stopped by the tracking guard after 150 steps
+    argv = ["run", "--case", "hsm2-circle-III", "--controller", "pd"]
+    assert main([*argv, "--json", str(js), "--plot", str(png)]) == 0
     data = json.loads(js.read_text())
     assert data["case"] == "hsm2-circle-III"
     m = data["metrics"]

@@ -150,3 +150,88 @@ def test_compare_table_without_pd_takes_the_first_row_as_reference():
     assert "RMS/ccc:wp=3e4" in lines[1] and "RMS/PD" not in text
     assert lines[2].split("[")[0].split()[-1] == "1.00"
     assert lines[3].split("[")[0].split()[-1] == "0.250"
+
+
+# --- completed: only a run that followed the program; the cut scope of G-code rapids ---------
+
+
+def _te_record(te, reason=None, planned=None):
+    n = len(te)
+    rec = _record(np.zeros(n), te, np.zeros((n, 2)), reason=reason)
+    rec.n_steps_planned = planned
+    return rec
+
+
+def test_completed_only_for_a_run_that_followed_the_program():
+    ok = _te_record([[1e-4, 0.0], [5e-3, 5e-3], [2e-4, -1e-4]])
+    assert ok.completed and ok.incomplete_reason is None
+    assert score(ok)["completed"] is True and score(ok)["incomplete_reason"] is None
+    # a tool that stood still on a closed path: back at its start at the end, 20 mm away midway
+    still = _te_record([[0.0, 0.0], [0.02, 0.0], [0.0, 0.0]])
+    m = score(still)
+    assert m["completed"] is False and m["termination_reason"] is None
+    assert "did not follow" in m["incomplete_reason"] and "20 mm" in m["incomplete_reason"]
+    late = _te_record([[1e-4, 0.0], [2e-3, 0.0]])  # never off by 10 mm, but 2 mm short at the end
+    assert not late.completed and "did not reach the end" in late.incomplete_reason
+    short = _te_record([[0.0, 0.0]] * 3, planned=5)
+    assert not short.completed and short.incomplete_reason == "stopped after 3 of 5 steps"
+    assert _te_record([[0.0, 0.0]] * 5, planned=5).completed
+    stopped = _te_record([[0.0, 0.0]], reason="tracking_error_limit")
+    assert score(stopped)["incomplete_reason"] == "terminated: tracking_error_limit"
+    assert not _te_record([[0.0, 0.0], [np.nan, 0.0], [0.0, 0.0]]).completed
+
+
+def test_cut_scope_takes_the_headline_over_cutting_steps_by_hand():
+    eps = np.array([9.0, 1.0, 3.0, 2.0, 7.0]) * 1e-6
+    rapid = np.array([True, False, False, False, True])
+    rec = _record(eps, np.zeros((5, 2)), np.zeros((5, 2)))
+    assert score(rec)["scope"] == "all" and score(rec)["rapid_max_contour_error_um"] is None
+    assert score(rec)["max_contour_error_um"] == pytest.approx(9.0)
+    rec.rapid = rapid
+    m = score(rec)
+    assert m["scope"] == "cut"
+    assert m["max_contour_error_um"] == pytest.approx(3.0)
+    assert m["rms_contour_error_um"] == pytest.approx(np.sqrt((1 + 9 + 4) / 3))
+    assert m["mean_abs_contour_error_um"] == pytest.approx(2.0)
+    assert m["rapid_max_contour_error_um"] == pytest.approx(9.0)
+    assert m["rapid_rms_contour_error_um"] == pytest.approx(np.sqrt((81 + 49) / 2))
+    rec.rapid = rapid[:4]
+    with pytest.raises(ValueError, match="rapid"):
+        score(rec)
+
+
+def test_gcode_rapids_are_scored_apart_from_the_cutting_moves():
+    from pathlib import Path
+
+    import gymnasium as gym
+
+    from agents import make_controller
+    from contour_env import ENV_ID
+    from contour_env.evaluation import run_episode
+
+    # G00 to the start of the cut, two G01 lines, G00 back to the origin
+    program = Path(__file__).resolve().parent / "data" / "rapids.nc"
+    env = gym.make(ENV_ID, plant="friction-table", path=str(program))
+    setup = env.unwrapped.setup
+    np.testing.assert_array_equal(setup.segment_is_rapid, [True, False, False, True])
+    # each step by the reference's arc length: rapid inside the first 5 mm and the last
+    # segment (from 25 mm on), cutting in between, the junctions counting as cutting
+    s = setup.reference.arc_length
+    expected = (s < 0.005) | (s > 0.025)
+    np.testing.assert_array_equal(setup.step_is_rapid, expected)
+    assert setup.step_is_rapid[0] and setup.step_is_rapid[-1]  # start and final settle
+
+    rec = run_episode(env, make_controller("pd"))
+    n = len(rec.contour_error)
+    np.testing.assert_array_equal(rec.rapid, setup.step_is_rapid[1 : n + 1])
+    m = score(rec)
+    assert m["completed"] and m["scope"] == "cut"
+    cut, fast = rec.contour_error[~rec.rapid] * 1e6, rec.contour_error[rec.rapid] * 1e6
+    assert 0 < cut.size < n and fast.size > 0
+    assert m["max_contour_error_um"] == pytest.approx(np.max(cut), rel=1e-12)
+    assert m["rms_contour_error_um"] == pytest.approx(np.sqrt(np.mean(cut**2)), rel=1e-12)
+    assert m["mean_abs_contour_error_um"] == pytest.approx(np.mean(cut), rel=1e-12)
+    assert m["rapid_max_contour_error_um"] == pytest.approx(np.max(fast), rel=1e-12)
+    assert m["rapid_rms_contour_error_um"] == pytest.approx(np.sqrt(np.mean(fast**2)), rel=1e-12)
+    # a path without rapids keeps the whole-episode scope
+    assert score(run_episode(gym.make(ENV_ID, case="sharp-corner"), None))["scope"] == "all"

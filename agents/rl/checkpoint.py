@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from contour_env.io import atomic_write_json
+from contour_env.io import apply_default_mode, atomic_write_json
 
 MANIFEST = "manifest.json"
 CHECKPOINT_PREFIX = "step_"
@@ -143,6 +143,7 @@ def write_checkpoint(root: Path, timesteps: int, writer, keep: int) -> Path:
     final = root / f"{CHECKPOINT_PREFIX}{timesteps:012d}"
     tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=root))
     try:
+        apply_default_mode(tmp, directory=True)  # mkdtemp's 0700 → as the umask says
         writer(tmp)
         write_manifest(tmp)
         for p in tmp.iterdir():

@@ -31,7 +31,6 @@ import importlib.util
 import json
 import os
 import shutil
-import tempfile
 import time
 from pathlib import Path
 
@@ -40,7 +39,7 @@ import numpy as np
 
 from contour_env import ENV_ID
 from contour_env.evaluation import evaluate
-from contour_env.io import atomic_write_json
+from contour_env.io import atomic_save, atomic_write_json
 
 from ..registry import make_controller
 from ..residual import MODEL_FORMAT, ResidualAgent
@@ -63,16 +62,8 @@ def tensorboard_available() -> bool:
 
 
 def _atomic_save(out: Path, name: str, save) -> None:
-    """``save(tmp_path)`` then rename to ``out/name``."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=Path(name).suffix, dir=out)
-    os.close(fd)
-    try:
-        save(tmp)
-        os.replace(tmp, out / name)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    """``save(tmp_path)`` then rename to ``out/name`` (mode from the umask, as io.py's)."""
+    atomic_save(out / name, save)
 
 
 def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:

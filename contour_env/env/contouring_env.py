@@ -51,10 +51,39 @@ class ContouringEnv(gym.Env):
 
     ## Rewards
 
+    While the episode runs:
     ``r = −(w_contour · ε + w_lag · |e_t|) / contour_error_scale_m − w_effort · ‖a‖² / n``
     with ε the true contour error (m), e_t the tangential (lag) error (m) and a the action.
     Defaults: w_contour = 1, w_lag = 0, w_effort = 0, scale 10 µm (r = −1 at ε = 10 µm).
-    On a non-finite state the reward is the crash-guard value −w_contour·abort/scale − w_effort.
+
+    When a guard ends the episode (see Episode End) the reward of that step is
+    ``r = −P · (n_steps − k)``: the guard penalty P for the terminating step and for each of the
+    steps it skips (k is ``info["step"]``; a full episode has n_steps − 1 steps), with
+    ``P = (w_contour · abort_contour_error_m + w_lag · abort_tracking_error_m)
+    / contour_error_scale_m + w_effort`` (``env.config.guard_penalty``; 500 by default).
+
+    Why: ε is the distance to the *whole* path and the tool starts on it, so a tool that never
+    moves has ε = 0; with the ε reward alone, standing still would earn the best return there
+    is (0). ε stays the measure (it is the part's error), and lag is bounded rather than
+    priced: a lag term at every step would change the reward of every controller that follows
+    the path (PD lags 0.2–0.6 mm on the named cases) and would need a tolerance, the same
+    number as a guard. So the tracking guard ends an episode whose tool is more than
+    ``abort_tracking_error_m`` from the reference, and ending costs P per step left. 10 mm
+    is 3× the largest tracking error of a classical controller on the named cases (jee-ccc,
+    3.1 mm), twice the contour guard, and reached by a standing tool within 0.13–0.55 s. No
+    running step costs more than P (ε ≤ the contour guard, |e_t| ≤ ‖x_d − x‖ ≤ the tracking
+    guard, ‖a‖²/n ≤ 1), so every episode's return is a sum over the same n_steps − 1 steps of
+    terms ≥ −P, and ending early (contour guard, tracking guard or a non-finite state) never
+    pays. Standing still scores about −P per remaining step: on every named case at least 18×
+    below PD's return (zero command vs PD: hsm2-circle-III −6.0·10⁵ vs −3.2·10⁴,
+    hsm2-circle-I −1.6·10⁶ vs −1.8·10⁴, sharp-corner −1.4·10⁶ vs −1.6·10⁴, lm-circle3d
+    −7.8·10⁷ vs −2.1·10⁵). A controller that keeps within 10 mm of the reference is never
+    stopped and earns exactly the ε reward (the classical ones on the named cases: rewards
+    unchanged by the guard). ``w_lag > 0`` adds a dense lag term for learners that want one
+    (it raises P to keep the bound). The terminating step's reward is large (up to
+    P · n_steps); a learner that needs small rewards can scale them in a wrapper. The metrics
+    apply the same follow limit: ``metrics.score`` reports ``completed`` only for a run that
+    followed the program.
 
     ## Starting State
 
@@ -62,8 +91,12 @@ class ContouringEnv(gym.Env):
 
     ## Episode End
 
-    - terminated: ε > ``abort_contour_error_m`` (crash guard, default 5 mm) or a non-finite
-      state; ``info["termination_reason"]`` is ``"contour_error_limit"`` or ``"non_finite_state"``.
+    - terminated, checked in this order: ε > ``abort_contour_error_m`` (contour guard, default
+      5 mm), ``"contour_error_limit"``; ``‖x_d − x‖ > abort_tracking_error_m`` (tracking guard
+      on the true tracking error, default 10 mm: the tool is not following the program, e.g.
+      it stands still), ``"tracking_error_limit"``; a non-finite state, ``"non_finite_state"``
+      (the reason is ``info["termination_reason"]``). The step's reward is −P · (n_steps − k),
+      see Rewards.
     - truncated: the path and the settle time are done (k = n_steps − 1).
 
     ## Info (every step, physical units)
@@ -72,7 +105,8 @@ class ContouringEnv(gym.Env):
     ``velocity`` (m/s), ``reference`` (m), ``contour_error`` (true ε, m),
     ``contour_error_estimate`` (Fᵀ(x_d − x): tangential, normal(, binormal), m),
     ``tracking_error`` (x_d − x, m), ``force`` (applied command after delay and saturation, N),
-    ``saturated`` (per axis bool), ``termination_reason`` (None while running).
+    ``saturated`` (per axis bool), ``termination_reason`` (None while running, then
+    ``"contour_error_limit"``, ``"tracking_error_limit"`` or ``"non_finite_state"``).
 
     ## Arguments
 
@@ -83,7 +117,10 @@ class ContouringEnv(gym.Env):
     feedrate_m_s, max_accel_m_s2, max_jerk_m_s3, settle_time_s : feed profile overrides.
     ideal : bool — switch off every effect the textbook model leaves out.
     structural_mode : bool — add the axial two-mass mode.
-    abort_contour_error_m, contour_error_scale_m, w_contour, w_lag, w_effort,
+    abort_contour_error_m : the contour guard (m, > 0, default 5e-3).
+    abort_tracking_error_m : the tracking guard on ‖x_d − x‖ (m, > 0, default 1e-2, the same
+        follow limit as ``metrics.score``'s ``completed``).
+    contour_error_scale_m (m, > 0), w_contour, w_lag, w_effort (≥ 0, dimensionless),
     error_obs_scale_m, velocity_error_obs_scale_m_s, curvature_obs_scale_m, preview_times_s,
     obs_clip : see above.
     measurement_noise_std_m : Gaussian encoder noise before quantisation (default 0).

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cases import Setup, build_setup
+from ..metrics import FOLLOW_LIMIT_M
 from ..plants import pack_params
 from . import kernel as K
 
@@ -20,9 +21,12 @@ PARALLEL_MIN_ENVS = 256
 TERMINATION_REASONS = {
     K.STATUS_CONTOUR_LIMIT: "contour_error_limit",
     K.STATUS_NONFINITE: "non_finite_state",
+    K.STATUS_TRACKING_LIMIT: "tracking_error_limit",
 }
 # indexed by status code ("" while running), for the batched info
-_REASON_BY_STATUS = np.array(["", "contour_error_limit", "non_finite_state"])
+_REASON_BY_STATUS = np.array(
+    ["", "contour_error_limit", "non_finite_state", "tracking_error_limit"]
+)
 
 
 DISTURBANCE_PHASES = ("random", "fixed")
@@ -33,6 +37,8 @@ class EnvConfig:
     """Episode, observation and reward settings (SI units). See ContouringEnv for meanings."""
 
     abort_contour_error_m: float = 5e-3
+    # the tracking-error guard; the default is the score's follow limit (metrics.FOLLOW_LIMIT_M)
+    abort_tracking_error_m: float = FOLLOW_LIMIT_M
     contour_error_scale_m: float = 1e-5
     w_contour: float = 1.0
     w_lag: float = 0.0
@@ -49,6 +55,7 @@ class EnvConfig:
     def __post_init__(self):
         positive = (
             "abort_contour_error_m",
+            "abort_tracking_error_m",
             "contour_error_scale_m",
             "error_obs_scale_m",
             "velocity_error_obs_scale_m_s",
@@ -78,6 +85,17 @@ class EnvConfig:
         if not times or any(not math.isfinite(t) or t <= 0 for t in times):
             raise ValueError(f"preview_times_s: non-empty, every time > 0 s, got {times}")
         object.__setattr__(self, "preview_times_s", times)
+
+    @property
+    def guard_penalty(self) -> float:
+        """P, the penalty (reward units, > 0 unless every weight is 0) of one step at the
+        guards: ``(w_contour · abort_contour_error_m + w_lag · abort_tracking_error_m)
+        / contour_error_scale_m + w_effort``. No step that runs costs more (ε ≤ the contour
+        guard, |e_t| ≤ ‖x_d − x‖ ≤ the tracking guard, ‖a‖²/n ≤ 1); a terminated episode is
+        charged P for its last step and for every step it skips."""
+        return (
+            self.w_contour * self.abort_contour_error_m + self.w_lag * self.abort_tracking_error_m
+        ) / self.contour_error_scale_m + self.w_effort
 
 
 class EnvCore:
@@ -137,6 +155,8 @@ class EnvCore:
         cfg[K.C_DIST_AMP] = config.disturbance_force_N
         cfg[K.C_OBS_CLIP] = config.obs_clip
         cfg[K.C_DIST_PHASE_RANDOM] = 1.0 if config.disturbance_phase == "random" else 0.0
+        cfg[K.C_ABORT_TRACK2] = config.abort_tracking_error_m**2
+        cfg[K.C_GUARD_PENALTY] = config.guard_penalty
         for slot, value in (
             (K.C_INV_T, self.T),
             (K.C_INV_ERR, config.error_obs_scale_m),

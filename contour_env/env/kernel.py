@@ -1,7 +1,8 @@
 """The compiled environment step, shared by the single and the vectorised env.
 
-One call: plant step → reference at k+1 → measurement → true contour error → crash guard →
-reward → observation, for every active env of the batch. The single env is a batch of one, so
+One call: plant step → reference at k+1 → measurement → true contour error → crash guards
+(contour error, tracking error, non-finite state) → reward → observation, for every active env
+of the batch. The single env is a batch of one, so
 the two cannot drift apart.
 """
 
@@ -40,10 +41,15 @@ from ..plants.kernel import NL_FD, NL_FMAX, NL_INV_RES, NL_RES, axis_step
     C_INV_ACC,
     C_INV_EPS,
     C_INV_AXES,
-) = range(22)
+    C_ABORT_TRACK2,
+    C_GUARD_PENALTY,
+) = range(24)
+# C_ABORT_TRACK2: the tracking-error guard squared (m²), compared with ‖x_d − x‖² (no root);
+# C_GUARD_PENALTY: P ≥ 0, the penalty of one step at the guards, charged for the terminating
+# step and every step a termination skips (see EnvConfig.guard_penalty)
 # cfg[CFG_SIZE + j]: 1 / (feed scale · preview time j), the preview's scale; the reciprocals
 # are computed once by EnvCore so that the per-step code multiplies instead of dividing
-CFG_SIZE = 22
+CFG_SIZE = 24
 # integer configuration (icfg)
 I_NSTEPS, I_NSUB, I_DELAY = range(3)
 ICFG_SIZE = 3
@@ -53,7 +59,7 @@ ICFG_SIZE = 3
 AX_STUCK, AX_UPEND, AX_MEAS, AX_VEL, AX_PREV, AX_APPLIED, AX_SAT, AX_REF, AX_TOFF = range(9)
 AX_SIZE = 9
 # termination status codes
-STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE = 0, 1, 2
+STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE, STATUS_TRACKING_LIMIT = 0, 1, 2, 3
 # noise streams
 _STREAM_MEAS, _STREAM_DIST, _STREAM_PHASE = 0, 1, 2
 
@@ -276,6 +282,7 @@ def _step_one(
     k[b] = kb
     kk = min(kb, n_steps - 1)
     finite = True
+    te2 = 0.0  # ‖x_d − x‖², the squared tracking error (true position)
     for i in range(n_axes):
         x = z[b, i, 0]
         if not (math.isfinite(x) and math.isfinite(z[b, i, 1])):
@@ -289,24 +296,35 @@ def _step_one(
             acc += frame[kk, c, r] * (ref_pav[kk, 0, c] - z[b, c, 0])
         est[b, r] = acc
         ax[AX_REF, b, r] = ref_pav[kk, 0, r]
+        d = ref_pav[kk, 0, r] - z[b, r, 0]
+        te2 += d * d
     if finite:
         pz = z[b, 2, 0] if n_axes == 3 else 0.0
         e = path_distance(seg_type, seg_data, seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
         eps[b] = e
+        st = STATUS_OK
         if e > cfg[C_ABORT]:
-            status[b] = STATUS_CONTOUR_LIMIT
+            st = STATUS_CONTOUR_LIMIT
+        elif te2 > cfg[C_ABORT_TRACK2]:
+            st = STATUS_TRACKING_LIMIT
+        status[b] = st
+        if st == STATUS_OK:
+            reward[b] = (
+                -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) * cfg[C_INV_EPS]
+                - cfg[C_W_EFFORT] * effort * cfg[C_INV_AXES]
+            )
         else:
-            status[b] = STATUS_OK
-        reward[b] = (
-            -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) * cfg[C_INV_EPS]
-            - cfg[C_W_EFFORT] * effort * cfg[C_INV_AXES]
-        )
+            # a guard ended the episode: this step and each of the n_steps − 1 − kb it skips
+            # count the guard penalty P, no less than any step that runs, so ending early
+            # never pays (at least this step, should a caller step past the end)
+            reward[b] = -cfg[C_GUARD_PENALTY] * max(n_steps - kb, 1)
         observe(n_axes, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs)
     else:
         eps[b] = math.inf
         status[b] = STATUS_NONFINITE
-        # a finite penalty equal to sitting at the crash guard; observation zeroed
-        reward[b] = -(cfg[C_W_CONTOUR] * cfg[C_ABORT]) / cfg[C_EPS_SCALE] - cfg[C_W_EFFORT]
+        # a finite penalty: the guard penalty for this step and every skipped one (as above);
+        # observation zeroed
+        reward[b] = -cfg[C_GUARD_PENALTY] * max(n_steps - kb, 1)
         for o in range(obs.shape[1]):
             obs[b, o] = 0.0
     terminated[b] = status[b] != STATUS_OK

@@ -112,7 +112,8 @@ def test_crash_guard_terminates_with_reason():
 
 
 def test_truncates_when_path_and_settle_time_are_done():
-    env = gym.make(ENV_ID, case="hsm2-circle-III")
+    # a tracking guard beyond the circle's 0.12 m diameter lets the zero command run to the end
+    env = gym.make(ENV_ID, case="hsm2-circle-III", abort_tracking_error_m=0.5)
     env.reset(seed=0)
     core = env.unwrapped.core
     steps = 0
