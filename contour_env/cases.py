@@ -13,6 +13,7 @@ import math
 import os
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +24,8 @@ from .plants import Plant
 from .plants.catalog import PLANT_ALIASES, nominal_params
 
 GCODE_SUFFIXES = (".nc", ".gcode", ".ngc", ".tap")
+# the programs shipped with the package (named cases on G-code, examples)
+DATA_DIR = Path(__file__).resolve().parent / "data"
 
 
 @dataclass(frozen=True)
@@ -42,6 +45,9 @@ class CaseSpec:
     # per-axis factors true = nominal × factor replacing the realistic mismatch of those fields
     # on the case's own plant (a payload: {"mass_kg": (1.3, 1.3)}); see Plant(true_scale=...)
     true_scale: dict = field(default_factory=dict)
+    # the case's own env settings (EnvConfig fields, e.g. disturbance_phase="random" and
+    # measurement_noise_std_m), used unless the env is made with other values
+    env_config: dict = field(default_factory=dict)
 
 
 CASES: dict[str, CaseSpec] = {}
@@ -99,13 +105,32 @@ def case_facts(spec: CaseSpec) -> dict:
     """
     params, effects = nominal_params(spec.plant)
     T = float(params.servo_period_s)
-    geometry = _build_path(spec.path)
-    profile = FeedProfile.build(
-        geometry,
-        spec.feedrate_m_s,
-        max_accel_m_s2=spec.max_accel_m_s2,
-        max_jerk_m_s3=spec.max_jerk_m_s3,
-    )
+    desc = spec.path
+    if desc["kind"] == "gcode":
+        program = read_gcode(DATA_DIR / desc["file"])
+        geometry = program.path
+        profile = FeedProfile.build(
+            geometry,
+            program.feedrate_m_s,
+            max_accel_m_s2=spec.max_accel_m_s2,
+            max_jerk_m_s3=spec.max_jerk_m_s3,
+            segment_feeds=program.segment_feeds_m_s,
+            segment_blend_m=program.segment_blend_m,
+            segment_dwell_s=program.segment_dwell_s,
+        )
+        if abs(program.feedrate_m_s - spec.feedrate_m_s) > 1e-12:
+            raise ValueError(
+                f"case {spec.name}: feedrate_m_s {spec.feedrate_m_s} differs from the program's "
+                f"F ({program.feedrate_m_s} m/s)"
+            )
+    else:
+        geometry = _build_path(desc)
+        profile = FeedProfile.build(
+            geometry,
+            spec.feedrate_m_s,
+            max_accel_m_s2=spec.max_accel_m_s2,
+            max_jerk_m_s3=spec.max_jerk_m_s3,
+        )
     episode = profile.duration + spec.settle_time_s
     f = spec.feedrate_m_s
     facts = {
@@ -121,7 +146,6 @@ def case_facts(spec: CaseSpec) -> dict:
         "mass_mismatch": _per_axis(effects.mismatch.get("mass_kg", ())),
         "mode_hz": _per_axis(effects.structural_mode_hz),
     }
-    desc = spec.path
     if desc["kind"] == "circle":
         r, start, sweep = desc["radius"], desc["start_angle"], desc["sweep"]
         normal = np.asarray(desc["normal"], dtype=float)
@@ -161,6 +185,26 @@ def case_facts(spec: CaseSpec) -> dict:
         facts.update(
             legs_mm=_per_axis(np.unique(np.round(lengths * 1e3, 6))),
             corner_deg=_per_axis(np.round(turns, 6)),
+        )
+    elif desc["kind"] == "gcode":
+        # corners: direction changes between consecutive segments (tangent at the joint)
+        s0 = geometry.seg_s0
+        joints = s0[1:] if len(s0) > 1 else np.zeros(0)
+        before = geometry.evaluate(np.maximum(joints - 1e-9, 0.0))["d1"]
+        after = geometry.evaluate(joints + 1e-9)["d1"]
+        cos = np.sum(before * after, axis=1) / (
+            np.linalg.norm(before, axis=1) * np.linalg.norm(after, axis=1)
+        )
+        turns = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        blend = np.unique(program.segment_blend_m[:-1][turns > 0.1])
+        facts.update(
+            file=desc["file"],
+            length_mm=_num(round(geometry.total_length * 1e3, 1)),
+            n_segments=str(geometry.n_segments),
+            corner_deg=_per_axis(np.round(np.sort(turns[turns > 0.1]), 0)),
+            blend_um=_per_axis(np.round(blend * 1e6, 3)),
+            duration_at_feed_s=f"{geometry.total_length / f:.2f}",
+            profile_s=f"{profile.duration:.2f}",
         )
     mass_scale = spec.true_scale.get("mass_kg")
     if mass_scale is not None:
@@ -302,9 +346,37 @@ _add(
             "segments meeting at a {corner_deg}° corner, {feed_mm_s} mm/s ({feed_m_min} m/min). "
             "The tool stops exactly at the corner (cosine S-curve, a ≤ {accel} m/s², jerk ≤ "
             "{jerk} m/s³), so the error there comes from friction, stick–slip and the "
-            "disturbance; settle {settle} s."
+            "disturbance; settle {settle} s. A degenerate stiction test, not a part: two "
+            "axis-aligned legs and an exact stop (see corner-blend for corners a part "
+            "program has)."
         ),
         published="VILCFD lowers the max contour error by about 37 % against conventional ILC",
+    )
+)
+
+_add(
+    CaseSpec(
+        name="corner-blend",
+        plant="friction-table",
+        path=dict(kind="gcode", file="corner_blend.nc"),
+        feedrate_m_s=0.02,
+        max_accel_m_s2=0.5,
+        max_jerk_m_s3=10.0,
+        settle_time_s=0.1,
+        notes=(
+            "A part profile on the friction table in continuous-path mode: {n_segments} "
+            "straight legs ({length_mm} mm, contour_env/data/{file}) with corners of "
+            "{corner_deg}° and no leg along an axis, G64 with a {blend_um} µm path tolerance, "
+            "{feed_mm_s} mm/s ({feed_m_min} m/min), a ≤ {accel} m/s², jerk ≤ {jerk} m/s³. The "
+            "look-ahead planner passes each corner at the grbl junction speed of that tolerance "
+            "(the reference stays on the programmed corner, the servo rounds it): the run "
+            "lasts {profile_s} s against {duration_at_feed_s} s at the programmed feed. The "
+            "disturbance phase is drawn at random each episode and the encoder has 50 nm noise "
+            "(env defaults of this case), so a figure is not a property of one phase; "
+            "settle {settle} s."
+        ),
+        published="(no published figure: a realistic counterpart of sharp-corner)",
+        env_config=dict(disturbance_phase="random", measurement_noise_std_m=5e-8),
     )
 )
 
@@ -338,6 +410,11 @@ class Setup:
     extra: dict = field(default_factory=dict)
     segment_is_rapid: np.ndarray | None = None
     step_is_rapid: np.ndarray | None = None
+    # a G-code program: the reader's one-line summary of what it ignored or approximated
+    # (setup words, dwells, Z taken by an unsimulated axis; "" for other paths) and its notes
+    # (``GcodeNote(line, word, action)`` per word)
+    program_summary: str = ""
+    program_notes: tuple = ()
 
 
 def rapid_steps(path: PathGeometry, segment_is_rapid, arc_length) -> np.ndarray:
@@ -356,12 +433,8 @@ def _looks_like_gcode_text(text: str) -> bool:
 
 
 @lru_cache(maxsize=32)
-def _cached_setup(
-    case, plant_key, path_key, feedrate, max_accel, max_jerk, settle, ideal, structural_mode
-):
-    return _make_setup(
-        case, plant_key, path_key, feedrate, max_accel, max_jerk, settle, ideal, structural_mode
-    )
+def _cached_setup(*args):
+    return _make_setup(*args)
 
 
 def build_setup(
@@ -375,6 +448,8 @@ def build_setup(
     settle_time_s=None,
     ideal=False,
     structural_mode=False,
+    strict=False,
+    rapid_feed_m_s=None,
 ) -> Setup:
     """Resolve (case | plant + path) into a Setup. Cached for hashable arguments.
 
@@ -382,6 +457,12 @@ def build_setup(
       case, plant or path: the default case ``contour_env.DEFAULT_CASE`` (hsm2-circle-II).
     - ``path``: a PathGeometry, G-code text, or a ``.nc``/``.gcode``/``.ngc``/``.tap`` file.
     - ``plant``: a plant name or a mapping of custom parameters (see params_from_mapping).
+    - ``strict``: a G-code program with Z motion on a 2-axis plant is refused (ValueError
+      naming the lines) instead of run with Z taken by an unsimulated axis (default False:
+      Z-only moves become pauses of their duration, XY motion during a Z change is kept; the
+      setup's ``program_summary`` says so).
+    - ``rapid_feed_m_s``: the machine's rapid rate for G00 moves (m/s > 0; default the
+      program's highest F, see ``contour_env.paths.gcode``).
     """
     if case is None and plant is None and path is None:
         case = DEFAULT_CASE
@@ -407,6 +488,8 @@ def build_setup(
         settle_time_s,
         bool(ideal),
         bool(structural_mode),
+        bool(strict),
+        rapid_feed_m_s,
     )
     if hashable:
         return _cached_setup(*args)
@@ -414,13 +497,28 @@ def build_setup(
 
 
 def _make_setup(
-    case, plant, path, feedrate, max_accel, max_jerk, settle, ideal, structural_mode
+    case,
+    plant,
+    path,
+    feedrate,
+    max_accel,
+    max_jerk,
+    settle,
+    ideal,
+    structural_mode,
+    strict=False,
+    rapid_feed=None,
 ) -> Setup:
     spec = get_case(case) if case is not None else None
     segment_feeds = None
     segment_is_rapid = None
+    program = None
     notes = spec.notes if spec else ""
     name = case or "custom"
+    if path is None and spec.path["kind"] == "gcode":
+        # a named case on a program shipped in contour_env/data
+        path = str(DATA_DIR / spec.path["file"])
+        name = case
     if path is None:
         geometry = _build_path(spec.path)
     elif isinstance(path, PathGeometry):
@@ -432,18 +530,12 @@ def _make_setup(
             or text.lower().endswith(GCODE_SUFFIXES)
             or (not _looks_like_gcode_text(text))
         ):
-            program = read_gcode(text)
+            program = read_gcode(text, rapid_feed_m_s=rapid_feed)
             name = case or os.path.basename(text)
         else:
-            program = parse_gcode(text)
+            program = parse_gcode(text, rapid_feed_m_s=rapid_feed)
             name = case or "gcode"
         geometry = program.path
-        if program.segment_is_rapid.any():
-            segment_is_rapid = program.segment_is_rapid.copy()
-        if feedrate is None:
-            # the program's own F words (per segment); an explicit feedrate overrides them
-            segment_feeds = program.segment_feeds_m_s
-            feedrate = program.feedrate_m_s
     else:
         raise ValueError(
             "path: expected a PathGeometry, G-code text or a G-code file "
@@ -459,6 +551,17 @@ def _make_setup(
         structural_mode=structural_mode,
         true_scale=spec.true_scale if own_plant and spec.true_scale else None,
     )
+    if program is not None:
+        if program.path.dim == 3 and plant_obj.n_axes == 2:
+            # Z taken by an unsimulated axis (or refused with strict=True)
+            program = program.planar_xy(strict=bool(strict))
+        geometry = program.path
+        if program.segment_is_rapid.any():
+            segment_is_rapid = program.segment_is_rapid.copy()
+        if feedrate is None:
+            # the program's own F words (per segment); an explicit feedrate overrides them
+            segment_feeds = program.segment_feeds_m_s
+            feedrate = program.feedrate_m_s
     if geometry.dim != plant_obj.n_axes:
         if geometry.dim == 2 and plant_obj.n_axes == 3:
             pass  # a planar xy path on a 3-axis machine: z is held at 0
@@ -485,12 +588,19 @@ def _make_setup(
             raise ValueError(f"{label}: must be a finite number > 0, got {value!r}")
     if not (math.isfinite(settle_s) and settle_s >= 0):
         raise ValueError(f"settle_time_s: must be >= 0 seconds, got {settle_s!r}")
+    planner = {}
+    if program is not None:
+        # the program's G61/G64 modes and G04 dwells drive the look-ahead feed planner
+        planner = dict(
+            segment_blend_m=program.segment_blend_m, segment_dwell_s=program.segment_dwell_s
+        )
     profile = FeedProfile.build(
         geometry,
         float(feedrate),
         max_accel_m_s2=float(accel),
         max_jerk_m_s3=float(jerk),
         segment_feeds=segment_feeds,
+        **planner,
     )
     reference = ReferenceTrajectory.build(
         geometry, profile, plant_obj.servo_period_s, settle_time_s=float(settle_s)
@@ -511,4 +621,6 @@ def _make_setup(
         notes=notes,
         segment_is_rapid=segment_is_rapid,
         step_is_rapid=step_is_rapid,
+        program_summary=program.summary() if program is not None else "",
+        program_notes=tuple(program.notes) if program is not None else (),
     )

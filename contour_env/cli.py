@@ -29,6 +29,18 @@ def _add_target_args(p: argparse.ArgumentParser) -> None:
         help="textbook plant: no delay, current lag, added friction, ripple, mismatch",
     )
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse a G-code program with Z motion on a 2-axis plant (default: Z is taken by "
+        "an unsimulated axis, Z-only moves become pauses)",
+    )
+    p.add_argument(
+        "--rapid-feed",
+        type=float,
+        default=None,
+        help="the machine's rapid rate for G00 moves, m/s (default: the program's highest F)",
+    )
 
 
 def _target_kwargs(args) -> dict:
@@ -49,7 +61,31 @@ def _target_kwargs(args) -> dict:
             kw["plant"] = args.plant
     if args.feedrate is not None:
         kw["feedrate_m_s"] = args.feedrate
+    if getattr(args, "strict", False):
+        kw["strict"] = True
+    if getattr(args, "rapid_feed", None) is not None:
+        kw["rapid_feed_m_s"] = args.rapid_feed
     return kw
+
+
+_SETUP_KEYS = (
+    "case",
+    "plant",
+    "path",
+    "feedrate_m_s",
+    "ideal",
+    "strict",
+    "rapid_feed_m_s",
+)
+
+
+def _print_program_summary(kw) -> None:
+    """One line on what the G-code reader ignored or approximated (nothing for other paths)."""
+    from .cases import build_setup
+
+    setup = build_setup(**{k: kw[k] for k in _SETUP_KEYS if k in kw})
+    if setup.program_summary:
+        print(f"program: {setup.program_summary}")
 
 
 def cmd_cases(args) -> int:
@@ -111,6 +147,8 @@ def cmd_run(args) -> int:
         f"), path length {setup.path.total_length:.4f} m, feedrate {setup.feedrate_m_s:.4f} m/s,"
         f" {core.n_steps - 1} steps of {core.T * 1e3:g} ms"
     )
+    if setup.program_summary:
+        print(f"program: {setup.program_summary}")
     policy, label = None, "zero command"
     if args.controller:
         from agents import make_controller
@@ -166,6 +204,7 @@ def cmd_compare(args) -> int:
                 text = f"≤{row['encoder_resolution_um']:g} µm (below one encoder count)"
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
 
+    _print_program_summary(kw)
     result = compare(names, seed=args.seed, progress=show, model=args.model, **kw)
     robust = None
     if args.randomize is not None:

@@ -20,7 +20,9 @@ Generators (all run the project's own scoring; times on a 2-core machine):
 - ``residual_table``: the shipped residual agents against their bases
   (``scripts/residual_benchmark.py --markdown``, several minutes: lm-circle3d is 159 000 steps);
 - ``ilc_table``: the repeated-batch ILC benchmark (``scripts/ilc_benchmark.py --markdown``,
-  ~40 s).
+  ~40 s);
+- ``corner_blend_table``: pd, ccc and adaptive-ccc on ``corner-blend`` over seeds 0–4
+  (``scripts/corner_blend_table.py``, ~20 s).
 
 ``--only`` runs the named ones; ``--check`` writes nothing and exits 1 when a table would
 change (the stamps are ignored: a table is stale when its content differs, not its date).
@@ -96,11 +98,17 @@ def ilc_table() -> str:
     return mod.format_markdown(rows, n)
 
 
+def corner_blend_table() -> str:
+    mod = _script("corner_blend_table")
+    return mod.format_markdown(mod.measure(["pd", "ccc", "adaptive-ccc"], 5), 5)
+
+
 GENERATORS: dict[str, Callable[[], str]] = {
     "controller_table": controller_table,
     "lee2012_table": lee2012_table,
     "residual_table": residual_table,
     "ilc_table": ilc_table,
+    "corner_blend_table": corner_blend_table,
 }
 
 

@@ -36,7 +36,7 @@ def test_run_writes_json_and_plot(tmp_path, capsys):
 
 def test_run_gcode_file(tmp_path):
     f = tmp_path / "sq.nc"
-    f.write_text("G21 G90 G17\nG01 X5 Y0 F300\nG01 X5 Y5\n")
+    f.write_text("G21 G90 G17 G61\nG01 X5 Y0 F300\nG01 X5 Y5\n")
     js = tmp_path / "g.json"
     assert main(["run", "--plant", "friction-table", "--gcode", str(f), "--json", str(js)]) == 0
     assert json.loads(js.read_text())["plant"] == "friction-table"
@@ -130,7 +130,7 @@ def test_stability_bad_inputs_are_clean_errors(tmp_path, capsys):
 
 def test_ilc_writes_json_plot_and_state_and_continues(tmp_path, capsys):
     g = tmp_path / "corner.nc"
-    g.write_text("G21 G90 G17\nG01 X3 F1200\nG01 Y3\n")
+    g.write_text("G21 G90 G17 G61\nG01 X3 F1200\nG01 Y3\n")
     js, png, st = tmp_path / "i.json", tmp_path / "i.png", tmp_path / "s.npz"
     base = ["ilc", "--plant", "friction-table", "--gcode", str(g), "--controller", "ilc-contour"]
     assert (
@@ -191,7 +191,7 @@ def test_run_and_ilc_accept_variants(tmp_path, capsys):
     assert main(argv) == 0
     assert json.loads(js.read_text())["controller"] == "ccc:wp=3e4:wd=20"
     g = tmp_path / "corner.nc"
-    g.write_text("G21 G90 G17\nG01 X3 F1200\nG01 Y3\n")
+    g.write_text("G21 G90 G17 G61\nG01 X3 F1200\nG01 Y3\n")
     ji = tmp_path / "i.json"
     spec = "ilc-contour:gn=1.2:q=20"
     argv = ["ilc", "--plant", "friction-table", "--gcode", str(g), "--controller", spec]

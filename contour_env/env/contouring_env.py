@@ -113,7 +113,13 @@ class ContouringEnv(gym.Env):
     case : str — a named case (``contour-env cases``); its plant/path/feed are defaults.
     plant : str or mapping — a named plant or custom parameters (with ``path``).
     path : PathGeometry, G-code text or a ``.nc``/``.gcode`` file (G-code is read in its own
-        units and converted to metres).
+        units and converted to metres; setup words are reported in
+        ``env.unwrapped.setup.program_summary``; G61/G64 and G04 drive the look-ahead feed
+        planner, see docs/FEED_PLANNER.md).
+    strict : bool — refuse a G-code program with Z motion on a 2-axis plant (default False: Z
+        is taken by an unsimulated axis, Z-only moves become pauses of their duration).
+    rapid_feed_m_s : float — the machine's rapid rate for G00 moves (m/s; default the
+        program's highest F).
     feedrate_m_s, max_accel_m_s2, max_jerk_m_s3, settle_time_s : feed profile overrides.
     ideal : bool — switch off every effect the textbook model leaves out.
     structural_mode : bool — add the axial two-mass mode.

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cases import Setup, build_setup
+from ..cases import Setup, build_setup, get_case
 from ..metrics import FOLLOW_LIMIT_M
 from ..plants import pack_params
 from . import kernel as K
@@ -538,6 +538,8 @@ def make_core(
     ideal=False,
     structural_mode=False,
     plant_params=None,
+    strict=False,
+    rapid_feed_m_s=None,
     **config,
 ) -> EnvCore:
     setup = build_setup(
@@ -550,5 +552,11 @@ def make_core(
         settle_time_s=settle_time_s,
         ideal=ideal,
         structural_mode=structural_mode,
+        strict=strict,
+        rapid_feed_m_s=rapid_feed_m_s,
     )
+    if isinstance(case, str):
+        # the case's own env settings (e.g. corner-blend: random disturbance phase, encoder
+        # noise) unless given here
+        config = {**get_case(case).env_config, **config}
     return EnvCore(setup, EnvConfig(**config), n_envs=n_envs, plant_params=plant_params)

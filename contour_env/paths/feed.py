@@ -1,5 +1,7 @@
-"""Feed profile s(t) along a path: jerk-bounded ("cosine") S-curve from rest to rest on each
-section, with an exact stop (like G61) at every sharp corner and feed change."""
+"""Feed profile s(t) along a path: jerk-bounded ("cosine") S-curves. By default from rest to
+rest on each section, with an exact stop (like G61) at every sharp corner and feed change; with
+per-segment blend tolerances or dwells, the look-ahead planner of `contour_env.paths.planner`
+(G64 junction speeds, dwells, the programmed feed through gentle bends)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import planner
 from .geometry import PathGeometry
+from .planner import Block
 
 
 def _positive(name: str, value, unit: str) -> float:
@@ -44,6 +48,9 @@ def fitting_feed(length: float, a_max: float, j_max: float) -> float:
     )
 
 
+__all__ = ["Block", "FeedProfile", "Section", "fitting_feed", "ramp_time"]
+
+
 class Section(NamedTuple):
     """One stop-to-stop stretch: arc lengths (m), peak feed (m/s), start and end times (s)."""
 
@@ -68,23 +75,43 @@ class Section(NamedTuple):
 class FeedProfile:
     """s(t), ṡ(t), s̈(t) along a path (m, m/s, m/s²), built with `FeedProfile.build`.
 
-    The path is cut into sections at sharp corners (tangent jump > ``corner_tol_rad``) and,
-    with per-segment feeds, where the feed changes. The tool stops exactly at each cut (like
-    G61 exact-stop mode), so the reference velocity is continuous in direction everywhere.
+    Exact-stop profile (the default, ``segment_blend_m`` and ``segment_dwell_s`` None): the
+    path is cut into sections at sharp corners (tangent jump > ``corner_tol_rad``) and, with
+    per-segment feeds, where the feed changes. The tool stops exactly at each cut (like G61
+    exact-stop mode), so the reference velocity is continuous in direction everywhere.
     Each section runs a cosine S-curve from rest to rest: with peak feed F and ramp time
     Ta = max(π F / (2 a_max), π sqrt(F / (2 j_max))), ṡ = F (1 − cos(π t / Ta)) / 2 while
     accelerating (covering F Ta / 2), F while cruising, mirrored while decelerating; so
     |s̈| ≤ a_max and |s⃛| ≤ j_max. A section shorter than F Ta runs at the lower peak feed F'
-    with F' Ta(F') = its length (no cruise).
+    with F' Ta(F') = its length (no cruise). ``sections``: tuple of `Section`.
 
-    Fields: ``total_length`` (m), ``sections`` (tuple of `Section`: s_start, s_end, peak_feed,
-    t_start, t_end), ``duration`` (s, property).
+    Look-ahead profile (``segment_blend_m`` and/or ``segment_dwell_s`` given; see
+    `contour_env.paths.planner` and docs/FEED_PLANNER.md): the path is cut into blocks at
+    junctions (a corner sharper than ``corner_tol_rad``, a feed change or a dwell; not a G64
+    corner that allows the feed of both sides, which constrains nothing). A corner
+    with blend tolerance δ > 0 (G64) is passed at grbl's junction-deviation speed
+    v_j = min(sqrt(a_max R), (j_max R²)^(1/3)), R = δ sin(φ/2) / (1 − sin(φ/2)), φ = π − θ,
+    capped by the feeds of both sides; δ = 0 (G61) or a dwell stops there. A feed change
+    without a corner under G64 is passed at the lower feed (no stop). Backward and forward
+    passes over all blocks fix the junction speeds; each block then runs cosine transitions
+    v_in → peak (≤ its feed) → cruise → v_out, each v0 → v1 as
+    v = v0 + (v1 − v0)(1 − cos(π t / Ta)) / 2, Ta = max(π |Δv| / (2 a_max), π sqrt(|Δv| /
+    (2 j_max))), so |s̈| ≤ a_max and |s⃛| ≤ j_max along the path. At a G64 corner the path
+    speed ṡ is continuous but the axis velocity ṡ t changes direction in one step (by
+    2 v_j sin(θ/2)): as in grbl the reference stays exactly on the programmed path and the
+    servo loop rounds the corner. ``sections``: tuple of `Block` (s_start, s_end, v_in,
+    peak_feed, v_out, t_start, t_end, dwell_s).
+
+    Fields: ``total_length`` (m), ``sections``, ``duration`` (s, property: to the end of the
+    motion, plus a dwell after the last segment).
     """
 
     total_length: float
     sections: tuple
     # per-section rows for vectorised sampling: s_start, s_end, F, Ta, Tc, t_start, t_end
     _table: np.ndarray = field(repr=False)
+    # look-ahead profile: the planner's table (planner.T0 … planner.TEND), else None
+    _plan: np.ndarray | None = field(default=None, repr=False)
 
     @classmethod
     def build(
@@ -96,12 +123,19 @@ class FeedProfile:
         max_jerk_m_s3: float,
         corner_tol_rad: float = 1e-3,
         segment_feeds=None,
+        segment_blend_m=None,
+        segment_dwell_s=None,
     ) -> FeedProfile:
         """Profile for ``path`` at ``feedrate_m_s`` > 0 m/s within ``max_accel_m_s2`` > 0 m/s²
-        and ``max_jerk_m_s3`` > 0 m/s³, stopping at corners sharper than ``corner_tol_rad``
-        (≥ 0 rad). ``segment_feeds``: optional feed per segment (m/s, each > 0), used instead of
-        ``feedrate_m_s`` on that segment (e.g. G-code F words); sections also split where it
-        changes."""
+        and ``max_jerk_m_s3`` > 0 m/s³; corners are joints whose tangent jumps by more than
+        ``corner_tol_rad`` (≥ 0 rad). ``segment_feeds``: optional feed per segment (m/s, each
+        > 0), used instead of ``feedrate_m_s`` on that segment (e.g. G-code F words).
+
+        ``segment_blend_m``: optional, one path-deviation tolerance per segment (m, ≥ 0) for
+        the junction at the END of segment k (G64 P; 0 = exact stop, G61). ``segment_dwell_s``:
+        optional, one dwell per segment (s, ≥ 0): the tool stops at the end of segment k and
+        waits that long (G4). With either given, the look-ahead planner runs (class docstring);
+        with both None, the exact-stop profile: a stop at every corner and feed change."""
         feed = _positive("feedrate_m_s", feedrate_m_s, "m/s")
         a_max = _positive("max_accel_m_s2", max_accel_m_s2, "m/s²")
         j_max = _positive("max_jerk_m_s3", max_jerk_m_s3, "m/s³")
@@ -111,7 +145,6 @@ class FeedProfile:
                 f"corner_tol_rad: must be a finite angle ≥ 0 rad, got {corner_tol_rad!r}"
             )
         L = path.total_length
-        cuts = {float(c) for c in path.corner_arc_lengths(tol)}
         seg_feed = None
         if segment_feeds is not None:
             try:
@@ -125,21 +158,40 @@ class FeedProfile:
                 )
             if not np.all(np.isfinite(seg_feed) & (seg_feed > 0)):
                 raise ValueError("segment_feeds: every feed must be a finite number > 0 m/s")
+        if segment_blend_m is not None or segment_dwell_s is not None:
+            n = path.n_segments
+            blend = (
+                None
+                if segment_blend_m is None
+                else planner._per_segment("segment_blend_m", segment_blend_m, n, "m")
+            )
+            dwell = (
+                None
+                if segment_dwell_s is None
+                else planner._per_segment("segment_dwell_s", segment_dwell_s, n, "s")
+            )
+            feeds = seg_feed if seg_feed is not None else np.full(n, feed)
+            tab = planner.plan(path, feeds, a_max, j_max, tol, blend, dwell)
+            return cls(
+                total_length=L, sections=planner.blocks(tab), _table=np.empty((0, 7)), _plan=tab
+            )
+        cuts = {float(c) for c in path.corner_arc_lengths(tol)}
+        if seg_feed is not None:
             change = np.nonzero(seg_feed[1:] != seg_feed[:-1])[0] + 1
             cuts.update(float(path.seg_s0[k]) for k in change)
         bounds = [0.0] + sorted(c for c in cuts if 0.0 < c < L) + [L]
+        if seg_feed is not None:
+            # feeds are constant inside a section (it is cut where they change); one
+            # vectorised look-up of the segment at each section's middle
+            mids = 0.5 * (np.array(bounds[:-1]) + np.array(bounds[1:]))
+            mid_feed = seg_feed[path.segment_index(mids)].tolist()
         sections, rows = [], []
         t = 0.0
-        for s0, s1 in zip(bounds[:-1], bounds[1:], strict=True):
+        for i, (s0, s1) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             length = s1 - s0
             if not length > 0:
                 continue
-            if seg_feed is not None:
-                # feeds are constant inside a section (it is cut where they change)
-                k = int(path.segment_index(0.5 * (s0 + s1))[0])
-                F = float(seg_feed[k])
-            else:
-                F = feed
+            F = mid_feed[i] if seg_feed is not None else feed
             ta = ramp_time(F, a_max, j_max)
             if F * ta > length:
                 F = fitting_feed(length, a_max, j_max)
@@ -153,7 +205,9 @@ class FeedProfile:
 
     @property
     def duration(self) -> float:
-        """Time (s) from the start to the stop at the end of the path."""
+        """Time (s) from the start to the stop at the end of the path (and its dwell, if any)."""
+        if self._plan is not None:
+            return float(self._plan[-1, planner.TEND])
         return self.sections[-1].t_end
 
     def sample(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -161,6 +215,8 @@ class FeedProfile:
 
         Before t = 0 the tool is at rest at s = 0, after `duration` at rest at the end.
         """
+        if self._plan is not None:
+            return planner.sample(self._plan, self.total_length, t)
         t = np.atleast_1d(np.asarray(t, dtype=np.float64)).reshape(-1)
         tab = self._table
         k = np.clip(np.searchsorted(tab[:, 5], t, side="right") - 1, 0, len(tab) - 1)

@@ -1,20 +1,73 @@
-"""Read the common G-code subset into a path (`GcodeProgram`).
+"""Read G-code as shops and CAM post-processors write it into a path (`GcodeProgram`).
 
-Supported words
----------------
+Words that shape the path
+-------------------------
 ``G00 G01 G02 G03`` (modal motion), ``G17 G18 G19`` (arc plane), ``G20 G21`` (inch / mm),
 ``G90 G91`` (absolute / incremental), ``X Y Z`` (target), ``I J K`` (arc centre offsets),
-``R`` (arc radius), ``F`` (feed, modal), ``N`` (line number, ignored). Letters may be lower
-case, words may be separated by spaces (all whitespace inside a line is ignored, as in
-RS274/NGC), leading zeros are allowed (``G1`` == ``G01``), numbers may omit the leading digit
-(``.5``) or the fraction (``5.``). Comments in parentheses and after ``;`` are removed, lines
-that start with ``%`` (tape markers) are ignored, blank lines are allowed.
+``R`` (arc radius), ``F`` (feed, modal), ``N`` (line number, ignored).
 
-Anything else -- ``M``/``S``/``T``/``O`` words, ``G04``, ``G41``, any other G-code or letter,
-a word without a number, a number that does not parse, two codes of one modal group or two
-of the same letter on one line, an inconsistent arc, a feed move before any ``F``, ``F <= 0``
--- raises ``ValueError`` whose message starts ``"G-code line <n>: "`` (``n`` = 1-based line
-of the text, counting blank and comment lines) and quotes the offending word.
+Words that time the path
+------------------------
+* ``G64`` continuous path (blending) with an optional ``P`` tolerance (program units,
+  converted to m; ``G64`` alone or ``G64 P0`` = `DEFAULT_G64_TOLERANCE_M`, 0.01 mm, grbl's
+  junction deviation; a LinuxCNC ``Q`` is noted and ignored); ``G61`` / ``G61.1`` exact stop
+  (modal); ``G09`` exact stop at the end of its own line's move. A program that says
+  nothing runs in ``G64`` with the default tolerance, like most controls. The mode in force
+  on a move's own line governs how that move ends (Fanuc / LinuxCNC): it is
+  ``segment_blend_m[k]``, the tolerance at the junction after segment k; ``0.0`` means an
+  exact stop there. The last segment always ends in a stop (0.0), and so does a segment
+  followed by a dwell or by ``M00`` / ``M01``.
+* ``G04`` dwell: ``G04 P<seconds>`` (RS274/NGC, LinuxCNC, grbl: P is in seconds, with or
+  without a decimal point -- note that a Fanuc control reads an integer P as milliseconds;
+  the note of such a dwell says so) or ``G04 X<seconds>`` (Fanuc). The line must not move
+  (no other axis word, no motion code). The dwell is added to ``segment_dwell_s`` of the
+  segment before it (several add up); a dwell before the first move is noted as ignored.
+* ``M00`` / ``M01`` (program / optional stop): an exact stop after the preceding move, no
+  wait. ``M02`` / ``M30`` end the program: lines after them are not read (noted).
+
+Words that are read and reported (``GcodeProgram.notes``), not simulated
+------------------------------------------------------------------------
+``M`` (spindle M03/M04/M05, tool change M06, coolant M07/M08/M09, any other machine
+function except M97/M98/M99), ``S`` (spindle speed), ``T`` (tool), ``H`` / ``D`` (offset
+numbers), ``O<n>`` alone on a line (program number), lines starting with ``%`` (tape
+markers, the whole line is ignored), a leading ``/`` (block delete: the line is executed),
+``G54``-``G59`` (work offsets, taken as identity), ``G43`` / ``G44 H..`` (tool length offset,
+ignored for contouring), ``G40 G49 G80 G15 G50 G69`` (cancel codes), ``G94`` (feed per
+minute, as assumed), ``G91.1`` (incremental arc centres, as assumed), ``G98`` / ``G99``
+(canned-cycle return level). Each such word gives one `GcodeNote` ``(line, word, action)``,
+in line order; ``GcodeProgram.summary()`` condenses them into one line for the CLI.
+
+Features that change the geometry and are not implemented
+---------------------------------------------------------
+O-word subroutines and control flow (``O100 sub``, ``o<name> call``), ``M97 M98 M99``,
+``#`` parameters and ``[ ]`` expressions, Fanuc macro words (``GOTO``, ``WHILE``, ...),
+cutter compensation ``G41 G42``, canned cycles ``G73 G74 G76 G81``-``G89``, rotation /
+scaling / mirroring ``G68 G51 G51.1``, offsets ``G10 G52 G92``, reference returns ``G28 G30``,
+machine-coordinate moves ``G53``, polar coordinates ``G16``, feed modes ``G93 G95``, absolute
+arc centres ``G90.1``, splines, threading, probing, any other G code, the letters ``A B C U V
+W E L`` and a ``P`` / ``Q`` outside ``G04`` / ``G64``. Also rejected: a word without a number,
+a number that does not parse (numbers are ASCII only: ``[+-]`` digits ``0-9`` with an
+optional ``.``; exponent notation such as ``X1e3`` and non-ASCII digits such as ``X١٠`` or
+full-width ``１０`` are errors), a coordinate beyond ``MAX_COORDINATE_M`` (so every path length
+is finite), two codes of one modal group or two of one letter on one line, an inconsistent
+arc, a feed move before any ``F``, ``F <= 0``, a negative dwell or tolerance, an axis word
+before any motion mode (``G43 H1 Z15.`` as the first move: write ``G0 G43 H1 Z15.``, as posts
+do; ``G80`` does not select a motion mode here).
+
+Errors: the reader does not stop at the first bad line. It raises one ``ValueError`` listing
+every bad line, each as ``"G-code line <n>: <what>"`` (``n`` = 1-based line of the text,
+counting blank and comment lines; unsupported features quote the line's text), at most
+`MAX_LISTED_ERRORS` of them plus a count. A single bad line gives just that one
+``"G-code line <n>: ..."`` message. After the first error the machine position is unknown,
+so later lines are checked only for line-local errors (unsupported words, bad numbers,
+characters, duplicate words); errors that depend on the position (arcs, feeds) are listed
+only up to the first error.
+
+Text: UTF-8, a leading byte-order mark is dropped; LF, CRLF and CR-only line endings are
+accepted (`read_gcode` decodes bytes as UTF-8, replacing bytes that are not). Letters may be
+lower case, whitespace inside a line is ignored (RS274/NGC), leading zeros are allowed
+(``G1`` == ``G01``), numbers may omit the leading digit (``.5``) or the fraction (``5.``).
+Comments in parentheses and after ``;`` are removed, blank lines are allowed.
 
 Conventions
 -----------
@@ -23,9 +76,9 @@ Conventions
   units in effect on its own line (``G20``/``G21`` on the same line apply first); the feed
   keeps its physical value when the units change later. ``GcodeProgram.units`` is the unit
   system in effect at the first move.
-* Order inside a line: plane, units, ``F``, distance mode, motion; so ``G20``/``G21`` and
-  ``G90``/``G91`` apply to every number on their own line. The word order on a line does not
-  matter.
+* Order inside a line: plane, units, ``F``, distance mode, path mode (``G61``/``G64``),
+  dwell, motion, stop / end (``M00 M01 M02 M30``); so ``G20``/``G21`` and ``G90``/``G91``
+  apply to every number on their own line. The word order on a line does not matter.
 * ``I J K`` are always incremental from the arc start point (Fanuc / RS274 default, i.e.
   ``G91.1``), in both ``G90`` and ``G91``. Only the two offsets of the active plane may be
   given (``G17``: I J, ``G18``: I K, ``G19``: J K); a missing one is 0.
@@ -57,6 +110,24 @@ Conventions
   ``ValueError("G-code program has no motion")``.
 * The path is 2-D (``dim = 2``) when every point of it has z = 0 exactly (lines with
   z = 0 at both ends, plane arcs in z = 0 about +-Z), else 3-D.
+
+Two-axis machines: `GcodeProgram.planar_xy`
+-------------------------------------------
+``program.planar_xy()`` returns the program as an XY machine follows it while an
+unsimulated Z axis does the rest: every point gets z = 0, and each segment keeps its
+duration (length / feed) on the real machine. A Z-only move becomes a pause of that
+duration, added to ``segment_dwell_s`` of the XY segment before it (noted as ignored
+before any XY move); a line with XY and Z motion becomes its XY projection with the feed
+scaled by (XY length / length); a ``G17`` helix becomes its XY arc (same centre, radius and
+sweep) with the feed scaled by r / sqrt(r^2 + pitch^2); a ``G18``/``G19`` arc projects onto
+the XY plane as a straight stroke that reverses at the arc's extremes: it becomes exact
+lines split at the reversal points (exact stops there), each at its average speed; a
+``G18``/``G19`` helix projects onto a sine-like curve that is approximated by chords within
+`PLANAR_CHORD_TOL_M` (1 um) and noted so (the junctions between those chords blend within
+max(G64 tolerance, 1 um) even under G61: they lie inside one block). Each changed line gives a
+note starting
+``"Z motion taken by an unsimulated axis: "``. ``planar_xy(strict=True)`` raises instead,
+naming every line with Z motion. A program whose path is already 2-D is returned as is.
 """
 
 from __future__ import annotations
@@ -64,7 +135,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -72,7 +143,10 @@ import numpy as np
 
 __all__ = [
     "ALLOWED_EXTENSIONS",
+    "DEFAULT_G64_TOLERANCE_M",
+    "GcodeNote",
     "GcodeProgram",
+    "MAX_COORDINATE_M",
     "parse_gcode",
     "read_gcode",
 ]
@@ -80,38 +154,178 @@ __all__ = [
 MM_M = 1e-3
 INCH_M = 0.0254
 ALLOWED_EXTENSIONS = (".nc", ".gcode", ".ngc", ".tap")
-SUPPORTED_WORDS = "G00 G01 G02 G03 G17 G18 G19 G20 G21 G90 G91 X Y Z I J K R F N"
+SUPPORTED_WORDS = (
+    "G00 G01 G02 G03 G04 G09 G17 G18 G19 G20 G21 G61 G61.1 G64 G90 G91 X Y Z I J K R F P N; "
+    "reported: M S T H D O G40 G43 G44 G49 G54-G59 G80 G94 G91.1 G98 G99 G15 G50 G69"
+)
 ARC_ABS_TOL_M = 5e-6
 ARC_REL_TOL = 1e-4
 FULL_CIRCLE_TOL_M = 1e-9
 ZERO_LENGTH_TOL_M = 1e-12
+DEFAULT_G64_TOLERANCE_M = 1e-5  # G64 without P: 0.01 mm (grbl's default junction deviation)
+MAX_COORDINATE_M = 1e3  # |coordinate| limit: keeps every length finite (no machine is 1 km)
+MAX_LISTED_ERRORS = 50
+PLANAR_CHORD_TOL_M = 1e-6  # chord error of a projected G18/G19 helix in planar_xy
 
 _AXES = "XYZ"
 _OFFSETS = "IJK"  # offset letter for axis index 0, 1, 2
-_LETTERS = set("GXYZIJKRFN")
 # plane code -> (u axis, v axis, w axis) indices; w = u x v is the normal
 _PLANES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
-_GROUPS = {
-    0: "motion",
-    1: "motion",
-    2: "motion",
-    3: "motion",
-    17: "plane",
-    18: "plane",
-    19: "plane",
-    20: "units",
-    21: "units",
-    90: "distance",
-    91: "distance",
+# G codes read (value -> modal group); "noted" ones are reported and have no effect
+_G_GROUPS = {
+    0.0: "motion",
+    1.0: "motion",
+    2.0: "motion",
+    3.0: "motion",
+    4.0: "non-modal",
+    9.0: "exact stop",
+    17.0: "plane",
+    18.0: "plane",
+    19.0: "plane",
+    20.0: "units",
+    21.0: "units",
+    90.0: "distance",
+    91.0: "distance",
+    61.0: "path mode",
+    61.1: "path mode",
+    64.0: "path mode",
+    15.0: "polar",
+    40.0: "cutter compensation",
+    43.0: "length offset",
+    44.0: "length offset",
+    49.0: "length offset",
+    50.0: "scaling",
+    54.0: "work offset",
+    55.0: "work offset",
+    56.0: "work offset",
+    57.0: "work offset",
+    58.0: "work offset",
+    59.0: "work offset",
+    69.0: "rotation",
+    80.0: "canned cycle",
+    91.1: "arc distance",
+    94.0: "feed mode",
+    98.0: "return level",
+    99.0: "return level",
 }
-_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)")
+_G_NOTED = {
+    15.0: "ignored: polar coordinates off (never on here)",
+    40.0: "ignored: cutter compensation off (never on here)",
+    43.0: "ignored: tool length offset (contour unaffected)",
+    44.0: "ignored: tool length offset (contour unaffected)",
+    49.0: "ignored: tool length offset off",
+    50.0: "ignored: scaling off (never on here)",
+    69.0: "ignored: rotation off (never on here)",
+    80.0: "ignored: canned cycle off (never on here)",
+    91.1: "ignored: incremental arc centres (as assumed)",
+    94.0: "ignored: feed per minute (as assumed)",
+    98.0: "ignored: canned-cycle return level (no cycles here)",
+    99.0: "ignored: canned-cycle return level (no cycles here)",
+}
+for _c in range(54, 60):
+    _G_NOTED[float(_c)] = f"work offset G{_c} taken as identity"
+_G_UNSUPPORTED = {
+    41.0: "cutter radius compensation",
+    42.0: "cutter radius compensation",
+    41.1: "cutter radius compensation",
+    42.1: "cutter radius compensation",
+    10.0: "setting offsets",
+    52.0: "local coordinate offset",
+    92.0: "coordinate offset",
+    92.1: "coordinate offset",
+    92.2: "coordinate offset",
+    92.3: "coordinate offset",
+    28.0: "return to reference position, machine home unknown",
+    28.1: "setting the reference position",
+    30.0: "return to reference position, machine home unknown",
+    30.1: "setting the reference position",
+    29.0: "return from reference position",
+    53.0: "move in machine coordinates, machine zero unknown",
+    68.0: "coordinate rotation",
+    68.2: "coordinate rotation",
+    51.0: "scaling",
+    51.1: "mirroring",
+    16.0: "polar coordinates",
+    93.0: "inverse-time feed",
+    95.0: "feed per revolution",
+    90.1: "absolute arc centres",
+    5.0: "spline",
+    5.1: "spline",
+    5.2: "NURBS",
+    6.1: "NURBS",
+    33.0: "threading",
+    33.1: "rigid tapping",
+    7.0: "lathe diameter mode",
+    8.0: "lathe radius mode",
+}
+for _c in (73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89):
+    _G_UNSUPPORTED[float(_c)] = "canned cycle"
+for _c in (38.2, 38.3, 38.4, 38.5):
+    _G_UNSUPPORTED[_c] = "probing"
+_M_NOTED = {
+    0: "program stop: exact stop here, no wait",
+    1: "optional stop: exact stop here, no wait",
+    2: "program end",
+    30: "program end",
+    3: "ignored: spindle on (clockwise)",
+    4: "ignored: spindle on (counter-clockwise)",
+    5: "ignored: spindle stop",
+    6: "ignored: tool change (tool-change motion not simulated)",
+    7: "ignored: coolant on (mist)",
+    8: "ignored: coolant on (flood)",
+    9: "ignored: coolant off",
+}
+_M_UNSUPPORTED = {
+    97: "local subprogram call",
+    98: "subprogram call",
+    99: "subprogram return / program loop",
+}
+_LETTER_NOTED = {
+    "S": "ignored: spindle speed",
+    "T": "ignored: tool select",
+    "H": "ignored: tool length offset number",
+    "D": "ignored: tool diameter offset number (no cutter compensation)",
+    "O": "ignored: program number",
+}
+_LETTER_UNSUPPORTED = {
+    "A": "rotary axis; only X Y Z are simulated",
+    "B": "rotary axis; only X Y Z are simulated",
+    "C": "rotary axis; only X Y Z are simulated",
+    "U": "extra axis; only X Y Z are simulated",
+    "V": "extra axis; only X Y Z are simulated",
+    "W": "extra axis; only X Y Z are simulated",
+    "E": "extruder / extra axis word",
+    "L": "repeat count or G10 L word",
+}
+_LETTERS = set("GXYZIJKRFNPQM") | set(_LETTER_NOTED) | set(_LETTER_UNSUPPORTED)
+_TOKEN = re.compile(r"([A-Za-z])([^A-Za-z]*)")
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")  # ASCII digits only
+_EXPONENT = re.compile(r"[0-9.][eE][+-]?[0-9.]")
+_OWORD = re.compile(
+    r"O(?:<[^>]*>|[0-9]+)(SUB|ENDSUB|CALL|RETURN|IF|ELSEIF|ELSE|ENDIF|DO|WHILE|ENDWHILE|"
+    r"REPEAT|ENDREPEAT|BREAK|CONTINUE)"
+)
+_MACRO = re.compile(r"GOTO|WHILE|THEN|END[0-9]|DO[0-9]")
+
+
+class GcodeNote(NamedTuple):
+    """A word that was read but not simulated as written: ``line`` (1-based), ``word`` as
+    written (``"%"`` for a tape marker line), ``action`` what was done with it."""
+
+    line: int
+    word: str
+    action: str
+
+
+class _LineError(ValueError):
+    pass
 
 
 class _LineMove(NamedTuple):
-    """A straight move; ``feed`` is m/s, or None for a rapid (G00)."""
+    """A straight move (m); ``feed`` is m/s, or None for a rapid (G00)."""
 
-    start: np.ndarray
-    end: np.ndarray
+    start: tuple
+    end: tuple
     feed: float | None
     line: int
 
@@ -138,6 +352,14 @@ class _Word(NamedTuple):
     text: str  # as written (whitespace removed)
 
 
+def _short(text: str) -> str:
+    return text if len(text) <= 24 else text[:20] + "..."
+
+
+def _fmt_s(t: float) -> str:
+    return f"{t:.3g} s"
+
+
 @dataclass(frozen=True, eq=False)
 class GcodeProgram:
     """A parsed G-code program.
@@ -146,8 +368,12 @@ class GcodeProgram:
     (rapids at the rapid feed), ``path`` the `PathGeometry` built from the segments,
     ``feedrate_m_s`` the highest cutting (G01/G02/G03) feed (the rapid feed if the program
     has only rapids), ``units`` 'mm' or 'inch', ``source`` a name for messages.
-    Extras: ``segment_is_rapid`` (bool per segment) and ``segment_lines`` (1-based source line
-    of each segment).
+    Per segment k (numpy arrays, one entry per segment): ``segment_is_rapid`` (bool),
+    ``segment_lines`` (1-based source line), ``segment_blend_m`` (G64 path tolerance in m at
+    the junction after segment k, 0.0 = exact stop there; the last segment ends in a stop),
+    ``segment_dwell_s`` (pause in s after segment k, >= 0). ``notes``: list of `GcodeNote`
+    for the words read but not simulated as written (see the module docstring);
+    ``summary()`` condenses them.
     """
 
     segments: list
@@ -158,18 +384,270 @@ class GcodeProgram:
     source: str
     segment_is_rapid: np.ndarray
     segment_lines: np.ndarray
+    segment_blend_m: np.ndarray | None = None
+    segment_dwell_s: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+
+    def __post_init__(self):
+        n = len(self.segments)
+        if self.segment_blend_m is None:
+            blend = np.full(n, DEFAULT_G64_TOLERANCE_M)
+            if n:
+                blend[-1] = 0.0
+            object.__setattr__(self, "segment_blend_m", blend)
+        if self.segment_dwell_s is None:
+            object.__setattr__(self, "segment_dwell_s", np.zeros(n))
+
+    # ------------------------------------------------------------------ reporting
+    def summary(self) -> str:
+        """One line for the CLI: the words ignored, dwells, path modes, Z handling."""
+        ignored, modes, n_dwell, n_z = [], [], 0, 0
+        for note in self.notes:
+            a = note.action
+            if note.word == "%":
+                continue  # tape markers: not worth a word in the summary
+            if a.startswith("dwell"):
+                n_dwell += 1
+            elif a.startswith("path mode "):
+                mode = a[len("path mode ") :].split(":")[0]
+                if mode not in modes:
+                    modes.append(mode)
+            elif a.startswith("Z motion taken"):
+                n_z += 1
+            else:
+                ignored.append(note)
+        parts = []
+        if ignored:
+            words = list(dict.fromkeys(n.word for n in ignored))
+            shown = " ".join(words[:8]) + (" …" if len(words) > 8 else "")
+            n_lines = len({n.line for n in ignored})
+            parts.append(
+                f"ignored {len(ignored)} word{'s' * (len(ignored) != 1)} ({shown}) "
+                f"on {n_lines} line{'s' * (n_lines != 1)}"
+            )
+        else:
+            parts.append("nothing ignored")
+        if n_dwell:
+            parts.append(f"{n_dwell} dwell{'s' * (n_dwell != 1)}")
+        if n_z:
+            parts.append(f"{n_z} line{'s' * (n_z != 1)} with Z motion taken by an unsimulated axis")
+        pause = float(np.sum(self.segment_dwell_s))
+        if pause > 0:
+            parts.append(f"pauses {pause:.3g} s in all")
+        if not any(m.startswith(("G61", "G64")) for m in modes):
+            modes.insert(0, f"G64 (default {DEFAULT_G64_TOLERANCE_M * 1e3:g} mm)")
+        parts.append(", ".join(modes))
+        return "; ".join(parts)
+
+    # ------------------------------------------------------------------ 2-axis machines
+    def planar_xy(self, strict: bool = False) -> GcodeProgram:
+        """The program for an XY machine; Z is taken by an unsimulated axis (module docstring).
+
+        Returns ``self`` when the path is already 2-D. ``strict=True`` raises ``ValueError``
+        naming every line with Z motion instead of converting it.
+        """
+        from contour_env.paths.geometry import PathGeometry
+        from contour_env.paths.segments import Arc, Line
+
+        if self.path.dim == 2:
+            return self
+        where = "" if self.source == "<string>" else f" [{self.source}]"
+        z_lines = sorted(
+            {
+                int(ln)
+                for s, ln in zip(self.segments, self.segment_lines, strict=True)
+                if _has_z_motion(s)
+            }
+        )
+        if strict and z_lines:
+            shown = ", ".join(map(str, z_lines[:MAX_LISTED_ERRORS]))
+            more = len(z_lines) - MAX_LISTED_ERRORS
+            raise ValueError(
+                f"G-code program has Z motion on {len(z_lines)} line"
+                f"{'s' * (len(z_lines) != 1)} ({shown}{f' and {more} more' if more > 0 else ''})"
+                f"; a 2-axis (XY) machine cannot follow it (strict=True){where}"
+            )
+        segs, feeds, rapid, lines, blend, dwell = [], [], [], [], [], []
+        notes: list[GcodeNote] = []
+
+        def add(seg, feed, k, b):
+            segs.append(seg)
+            feeds.append(feed)
+            rapid.append(bool(self.segment_is_rapid[k]))
+            lines.append(int(self.segment_lines[k]))
+            blend.append(b)
+            dwell.append(0.0)
+
+        def pause(t, k, word):
+            ln = int(self.segment_lines[k])
+            if segs:
+                dwell[-1] += t
+                blend[-1] = 0.0
+                notes.append(
+                    GcodeNote(ln, word, f"Z motion taken by an unsimulated axis: pause {_fmt_s(t)}")
+                )
+            else:
+                notes.append(
+                    GcodeNote(ln, word, f"ignored: Z motion before any XY motion ({_fmt_s(t)})")
+                )
+
+        for k, s in enumerate(self.segments):
+            f = float(self.segment_feeds_m_s[k])
+            b = float(self.segment_blend_m[k])
+            ln = int(self.segment_lines[k])
+            if isinstance(s, Line):
+                p0, p1 = s.start, s.end
+                dxy = math.hypot(p1[0] - p0[0], p1[1] - p0[1])
+                word = "G0" if self.segment_is_rapid[k] else "G1"
+                if dxy <= ZERO_LENGTH_TOL_M:
+                    pause(s.length / f, k, word)
+                else:
+                    ratio = dxy / s.length
+                    add(Line((p0[0], p0[1], 0.0), (p1[0], p1[1], 0.0)), f * ratio, k, b)
+                    if p1[2] != p0[2]:
+                        notes.append(
+                            GcodeNote(
+                                ln,
+                                word,
+                                "Z motion taken by an unsimulated axis: "
+                                f"XY feed x{ratio:.4g} (same duration)",
+                            )
+                        )
+            elif s.u[2] == 0.0 and s.v[2] == 0.0:  # G17 arc / helix about +-Z
+                c = (s.center[0], s.center[1], 0.0)
+                helix = s.pitch != 0.0
+                ratio = s.radius / math.hypot(s.radius, s.pitch)
+                add(Arc(c, s.u, s.v, s.radius, s.theta0, s.sweep, 0.0), f * ratio, k, b)
+                if helix:
+                    notes.append(
+                        GcodeNote(
+                            ln,
+                            "G3" if s.sweep > 0 else "G2",
+                            "Z motion taken by an unsimulated axis: helix kept as its XY arc, "
+                            f"feed x{ratio:.4g} (same duration)",
+                        )
+                    )
+            else:  # G18 / G19 arc or helix
+                pieces, exact = _project_arc_xy(s)
+                dur_per_rad = math.hypot(s.radius, s.pitch) / f
+                w = s.w
+                plane = "G18" if abs(w[1]) > 0.5 else "G19"
+                word = "G3" if s.sweep > 0 else "G2"
+                n_kept = 0
+                for q0, q1, dth, stop in pieces:
+                    t = abs(dth) * dur_per_rad
+                    L = math.hypot(q1[0] - q0[0], q1[1] - q0[1])
+                    if L <= ZERO_LENGTH_TOL_M:
+                        if segs:
+                            dwell[-1] += t
+                            blend[-1] = 0.0
+                        continue
+                    # chord junctions inside one block blend whatever the mode (G61 included)
+                    inner = max(b, PLANAR_CHORD_TOL_M)
+                    q0z, q1z = (q0[0], q0[1], 0.0), (q1[0], q1[1], 0.0)
+                    add(Line(q0z, q1z), L / t, k, 0.0 if stop else inner)
+                    n_kept += 1
+                if n_kept and lines[-1] == ln and dwell[-1] == 0.0:
+                    blend[-1] = b  # the block's own end: the mode in force
+                kind = (
+                    (
+                        f"{plane} arc projected onto XY as {n_kept} line"
+                        f"{'s' * (n_kept != 1)} (exact, stops where it reverses)"
+                    )
+                    if exact
+                    else (
+                        f"{plane} helix projected onto XY as a polyline of {n_kept} chords "
+                        f"within {PLANAR_CHORD_TOL_M * 1e6:g} um"
+                    )
+                )
+                notes.append(GcodeNote(ln, word, f"Z motion taken by an unsimulated axis: {kind}"))
+            if segs and self.segment_dwell_s[k] > 0:
+                dwell[-1] += float(self.segment_dwell_s[k])
+                blend[-1] = 0.0
+        if not segs:
+            raise ValueError(f"G-code program has no XY motion; planar_xy needs some{where}")
+        blend[-1] = 0.0
+        feeds_arr = np.asarray(feeds, dtype=float)
+        rapid_arr = np.asarray(rapid, dtype=bool)
+        cutting = feeds_arr[~rapid_arr]
+        feedrate = float(cutting.max()) if cutting.size else float(feeds_arr.max())
+        all_notes = sorted(list(self.notes) + notes, key=lambda n: n.line)
+        return GcodeProgram(
+            segments=segs,
+            segment_feeds_m_s=feeds_arr,
+            path=PathGeometry.from_segments(segs, dim=2),
+            feedrate_m_s=feedrate,
+            units=self.units,
+            source=self.source,
+            segment_is_rapid=rapid_arr,
+            segment_lines=np.asarray(lines, dtype=np.int64),
+            segment_blend_m=np.asarray(blend, dtype=float),
+            segment_dwell_s=np.asarray(dwell, dtype=float),
+            notes=all_notes,
+        )
+
+
+def _has_z_motion(seg) -> bool:
+    if hasattr(seg, "radius"):
+        return bool(seg.u[2] != 0.0 or seg.v[2] != 0.0 or seg.pitch * seg.w[2] != 0.0)
+    return bool(seg.start[2] != seg.end[2])
+
+
+def _project_arc_xy(a) -> tuple[list, bool]:
+    """XY projection of a G18/G19 arc/helix as pieces (p0, p1, dtheta, stop_after).
+
+    Without pitch the projection is a stroke along one axis: exact lines split at the angles
+    where it reverses (stop_after True there). With pitch: chords within PLANAR_CHORD_TOL_M
+    (the chord error of the projection is at most that of the circle, r (1 - cos(dth / 2))).
+    """
+    r, th0, sw = a.radius, a.theta0, a.sweep
+    th1 = th0 + sw
+    pu, pv = a.u[:2], a.v[:2]
+    # the in-plane axis lying in XY; its coordinate r (cos th pu + sin th pv) . d is extreme
+    # where -sin th (pu . d) + cos th (pv . d) = 0
+    d = pu if abs(pu[0]) + abs(pu[1]) > 0.5 else pv
+    phi = math.atan2(float(pv @ d), float(pu @ d))
+    lo, hi = min(th0, th1), max(th0, th1)
+    k0 = math.floor((lo - phi) / math.pi) + 1
+    turns = []
+    k = k0
+    while phi + k * math.pi < hi:
+        t = phi + k * math.pi
+        if t - lo > 1e-12 and hi - t > 1e-12:
+            turns.append(t)
+        k += 1
+    exact = a.pitch == 0.0
+    if exact:
+        grid = [th0, *(turns if sw > 0 else turns[::-1]), th1]
+        stops = [True] * (len(grid) - 2) + [False]
+    else:
+        dmax = 2.0 * math.acos(max(1.0 - PLANAR_CHORD_TOL_M / r, -1.0))
+        n = max(1, math.ceil(abs(sw) / dmax))
+        pts = set(np.linspace(lo, hi, n + 1).tolist()) | set(turns)
+        grid = sorted(pts, reverse=sw < 0)
+        stops = [False] * (len(grid) - 1)  # the projection turns smoothly: no reversal
+    g = np.asarray(grid)
+    p = a.point(g)
+    p[0], p[-1] = a.start_point, a.end_point
+    return [(p[i], p[i + 1], g[i + 1] - g[i], stops[i]) for i in range(len(g) - 1)], exact
 
 
 class _Parser:
     def __init__(self, source: str):
         self.source = source
+        self.errors: list[str] = []
+        self.notes: list[GcodeNote] = []
 
-    def error(self, lineno: int, msg: str) -> ValueError:
-        where = "" if self.source == "<string>" else f" [{self.source}]"
-        return ValueError(f"G-code line {lineno}: {msg}{where}")
+    def error(self, lineno: int, msg: str) -> _LineError:
+        return _LineError(f"G-code line {lineno}: {msg}")
+
+    def note(self, lineno: int, word: str, action: str) -> None:
+        self.notes.append(GcodeNote(lineno, word, action))
 
     # ---------------------------------------------------------------- lexing
     def strip_comments(self, raw: str, lineno: int) -> str:
+        if "(" not in raw and ";" not in raw:
+            return raw
         out = []
         i = 0
         while i < len(raw):
@@ -186,140 +664,361 @@ class _Parser:
             i += 1
         return "".join(out)
 
-    def words(self, code: str, lineno: int) -> list[_Word]:
+    def lex(self, code: str, lineno: int):
+        """Line-local checks; returns (words, gcodes, values, block_delete) or None if empty."""
         s = "".join(code.split())
-        words = []
-        i = 0
-        while i < len(s):
-            ch = s[i]
-            if not (ch.isascii() and ch.isalpha()):
-                raise self.error(lineno, f"unexpected character {ch!r} in {s[i:]!r}")
-            j = i + 1
-            while j < len(s) and not (s[j].isascii() and s[j].isalpha()):
-                j += 1
-            text, raw = s[i:j], s[i + 1 : j]
-            letter = ch.upper()
-            i = j
+        if not s:
+            return None
+        shown = " ".join(code.split())
+        if len(shown) > 80:
+            shown = shown[:77] + "..."
+        block_delete = s.startswith("/")
+        if block_delete:
+            s = s[1:]
+            if not s:
+                return None
+        up = s.upper()
+        feats = []
+        if "#" in s:
+            feats.append("'#' parameters / variables")
+        if "[" in s or "]" in s:
+            feats.append("'[ ]' expressions")
+        if "<" in s or _OWORD.match(up):
+            feats.append("O-word subroutine / control flow")
+        elif not feats and _MACRO.search(up):
+            feats.append("macro control flow (GOTO / WHILE / END)")
+        if feats:
+            raise self.error(
+                lineno, f"unsupported {', '.join(feats)}: not implemented, in {shown!r}"
+            )
+        m = _EXPONENT.search(code)
+        if m is not None:
+            raise self.error(
+                lineno,
+                f"exponent notation {code[max(m.start() - 6, 0) : m.end() + 4].strip()!r} is not "
+                "G-code (write numbers as digits with an optional '.')",
+            )
+        if not ("A" <= s[0] <= "Z" or "a" <= s[0] <= "z"):
+            ch = s[0]
+            raise self.error(lineno, f"unexpected character {ch!r} (U+{ord(ch):04X}) in {s[:40]!r}")
+        words: list[_Word] = []
+        unsupported: list[str] = []
+        for tok in _TOKEN.finditer(s):
+            text = tok.group(0)
+            letter, raw = tok.group(1).upper(), tok.group(2)
             if letter not in _LETTERS:
-                raise self.unsupported(lineno, text)
+                unsupported.append(f"{text!r} (unknown word)")
+                continue
             if raw == "":
                 raise self.error(lineno, f"word {text!r} has no number")
             if _NUMBER.fullmatch(raw) is None:
+                bad = [c for c in raw if not c.isascii()]
+                if bad:
+                    raise self.error(
+                        lineno,
+                        f"cannot parse the number in word {text!r}: non-ASCII character "
+                        f"{bad[0]!r} (U+{ord(bad[0]):04X}); numbers use the ASCII digits 0-9, "
+                        "'.', '+' and '-' only",
+                    )
                 raise self.error(lineno, f"cannot parse the number in word {text!r}")
             value = float(raw)
             if not math.isfinite(value):
-                raise self.error(lineno, f"cannot parse the number in word {text!r}")
-            if letter == "G" and not (value.is_integer() and int(value) in _GROUPS):
-                raise self.unsupported(lineno, text)
+                raise self.error(
+                    lineno, f"cannot parse the number in word {_short(text)!r} (not finite)"
+                )
+            if letter == "G":
+                if value not in _G_GROUPS:
+                    why = _G_UNSUPPORTED.get(value, "G code not implemented")
+                    unsupported.append(f"{text!r} ({why})")
+                    continue
+            elif letter == "M":
+                if value in _M_UNSUPPORTED:
+                    unsupported.append(f"{text!r} ({_M_UNSUPPORTED[value]})")
+                    continue
+            elif letter in _LETTER_UNSUPPORTED:
+                unsupported.append(f"{text!r} ({_LETTER_UNSUPPORTED[letter]})")
+                continue
             words.append(_Word(letter, value, text))
-        return words
+        if unsupported:
+            what = "word" if len(unsupported) == 1 else "words"
+            raise self.error(
+                lineno,
+                f"unsupported {what} {', '.join(unsupported)}: not implemented, in {shown!r}",
+            )
 
-    def unsupported(self, lineno: int, text: str) -> ValueError:
-        return self.error(lineno, f"unsupported word {text!r} (supported: {SUPPORTED_WORDS})")
+        gcodes: dict[str, tuple[float, str]] = {}
+        values: dict[str, _Word] = {}
+        for w in words:
+            if w.letter == "G":
+                group = _G_GROUPS[w.value]
+                if group in gcodes:
+                    raise self.error(
+                        lineno,
+                        f"two {group} codes on one line: {gcodes[group][1]!r} and {w.text!r}",
+                    )
+                gcodes[group] = (w.value, w.text)
+            elif w.letter != "M":
+                if w.letter in values:
+                    raise self.error(
+                        lineno,
+                        f"duplicate word {w.text!r} ({w.letter} already given as "
+                        f"{values[w.letter].text!r})",
+                    )
+                values[w.letter] = w
+        dwell = gcodes.get("non-modal", (None,))[0] == 4.0
+        g64 = gcodes.get("path mode", (None,))[0] == 64.0
+        if "P" in values and not (dwell or g64):
+            raise self.error(
+                lineno,
+                f"word {values['P'].text!r} needs G04 (dwell, P in s) or G64 (tolerance) "
+                "on its line",
+            )
+        if "Q" in values and not g64:
+            raise self.error(
+                lineno,
+                f"unsupported word {values['Q'].text!r} (cycle / peck word; Q is read only "
+                f"with G64) in {shown!r}",
+            )
+        if "O" in values and any(w.letter not in "ON" for w in words):
+            raise self.error(
+                lineno,
+                f"unsupported word {values['O'].text!r} with other words (subroutine / "
+                f"program call; an O word is read only as a program number alone on its line) "
+                f"in {shown!r}",
+            )
+        return words, gcodes, values, block_delete
 
     # ---------------------------------------------------------------- parsing
-    def parse(self, text: str, start) -> tuple[list, str | None, list[float]]:
+    def parse(self, text: str, start):
         pos = np.array(start, dtype=float).reshape(-1)
         if pos.shape == (2,):
             pos = np.append(pos, 0.0)
         if pos.shape != (3,) or not np.all(np.isfinite(pos)):
             raise ValueError(f"start must be 2 or 3 finite coordinates in metres, got {start!r}")
+        self.pos = [float(x) for x in pos]
+        self.unit = MM_M
+        self.units_name = "mm"
+        self.first_units: str | None = None
+        self.absolute = True
+        self.plane = 17
+        self.motion: int | None = None
+        self.feed: float | None = None
+        self.feeds_seen: list[float] = []
+        self.blend = DEFAULT_G64_TOLERANCE_M
+        self.moves: list = []
+        self.move_blend: list[float] = []
+        self.move_dwell: list[float] = []
 
-        unit = MM_M
-        units_name = "mm"
-        first_units: str | None = None
-        absolute = True
-        plane = 17
-        motion: int | None = None
-        feed: float | None = None
-        feeds_seen: list[float] = []
-        moves: list = []
-
-        for lineno, raw in enumerate(text.split("\n"), start=1):
-            if raw.strip().startswith("%"):
+        if text.startswith("\ufeff"):
+            text = text[1:]
+        if "\r" in text:
+            text = text.replace("\r\n", "\n").replace("\r", "\n")
+        lines = text.split("\n")
+        for lineno, raw in enumerate(lines, start=1):
+            st = raw.strip()
+            if not st:
                 continue
-            words = self.words(self.strip_comments(raw, lineno), lineno)
-            if not words:
+            if st.startswith("%"):
+                self.note(lineno, "%", "ignored: tape marker line")
                 continue
+            try:
+                lexed = self.lex(self.strip_comments(raw, lineno), lineno)
+            except _LineError as e:
+                self.errors.append(str(e))
+                continue
+            if lexed is None or self.errors:
+                continue  # after an error the position is unknown: line-local checks only
+            try:
+                ended = self.execute(lineno, *lexed)
+            except _LineError as e:
+                self.errors.append(str(e))
+                continue
+            if ended:
+                rest = sum(1 for r in lines[lineno:] if r.strip() and not r.strip().startswith("%"))
+                if rest:
+                    last = self.notes[-1]
+                    self.notes[-1] = last._replace(
+                        action=f"{last.action}: {rest} line{'s' * (rest != 1)} after it not read"
+                    )
+                break
+        return self.moves, self.first_units, self.feeds_seen
 
-            gcodes: dict[str, tuple[int, str]] = {}
-            values: dict[str, _Word] = {}
-            for w in words:
-                if w.letter == "G":
-                    code = int(w.value)
-                    group = _GROUPS[code]
-                    if group in gcodes:
-                        raise self.error(
-                            lineno,
-                            f"two {group} codes on one line: {gcodes[group][1]!r} and {w.text!r}",
-                        )
-                    gcodes[group] = (code, w.text)
+    def execute(self, lineno, words, gcodes, values, block_delete) -> bool:
+        """Run one lexed line; True when it ends the program (M02 / M30)."""
+        unit = self.unit
+        if "units" in gcodes:  # needed for the notes of G64 P
+            unit = INCH_M if gcodes["units"][0] == 20.0 else MM_M
+        if block_delete:
+            self.note(lineno, "/", "ignored: block delete (the line is executed)")
+        stop = end = False
+        for w in words:
+            if w.letter == "G":
+                action = _G_NOTED.get(w.value)
+                if action is not None:
+                    self.note(lineno, w.text, action)
+            elif w.letter == "M":
+                code = int(w.value) if w.value.is_integer() else None
+                action = _M_NOTED.get(code, "ignored: machine function")
+                self.note(lineno, w.text, action)
+                stop = stop or code in (0, 1)
+                end = end or code in (2, 30)
+            elif w.letter in _LETTER_NOTED:
+                self.note(lineno, w.text, _LETTER_NOTED[w.letter])
+            elif w.letter == "Q":
+                self.note(lineno, w.text, "ignored: G64 Q (CAM path merging tolerance)")
+
+        # modal state, in RS274/NGC order (units before F so that F uses this line's units)
+        if "plane" in gcodes:
+            self.plane = int(gcodes["plane"][0])
+        if "units" in gcodes:
+            inch = gcodes["units"][0] == 20.0
+            self.unit, self.units_name = (INCH_M, "inch") if inch else (MM_M, "mm")
+        if "F" in values:
+            fw = values["F"]
+            if not fw.value > 0:
+                raise self.error(lineno, f"feed rate must be > 0, got {fw.text!r}")
+            self.feed = fw.value * unit / 60.0
+            self.feeds_seen.append(self.feed)
+        if "distance" in gcodes:
+            self.absolute = gcodes["distance"][0] == 90.0
+        if "path mode" in gcodes:
+            code, text = gcodes["path mode"]
+            if code == 64.0:
+                pw = values.get("P")
+                if pw is not None and pw.value < 0:
+                    raise self.error(lineno, f"G64 tolerance must be >= 0, got {pw.text!r}")
+                if pw is None or pw.value == 0:
+                    self.blend = DEFAULT_G64_TOLERANCE_M
+                    desc = f"{text}: blend within {DEFAULT_G64_TOLERANCE_M * 1e3:g} mm (default)"
+                    if pw is not None:
+                        desc = f"{text} {pw.text}: blend within "
+                        desc += f"{DEFAULT_G64_TOLERANCE_M * 1e3:g} mm (default)"
                 else:
-                    if w.letter in values:
-                        raise self.error(
-                            lineno,
-                            f"duplicate word {w.text!r} ({w.letter} already given as "
-                            f"{values[w.letter].text!r})",
-                        )
-                    values[w.letter] = w
+                    self.blend = pw.value * unit
+                    desc = (
+                        f"{text} {pw.text} {self.units_name}: blend within "
+                        f"{self.blend * 1e3:.4g} mm"
+                    )
+                self.note(lineno, text, f"path mode {desc}")
+            else:
+                self.blend = 0.0
+                self.note(lineno, text, f"path mode {text}: exact stop at every junction")
+        exact_here = "exact stop" in gcodes
+        if exact_here:
+            t9 = gcodes["exact stop"][1]
+            self.note(lineno, t9, f"path mode {t9}: exact stop after this line's move")
 
-            # modal state, in RS274/NGC order (units before F so that F uses this line's units)
-            if "plane" in gcodes:
-                plane = gcodes["plane"][0]
-            if "units" in gcodes:
-                inch = gcodes["units"][0] == 20
-                unit, units_name = (INCH_M, "inch") if inch else (MM_M, "mm")
-            if "F" in values:
-                fw = values["F"]
-                if not fw.value > 0:
-                    raise self.error(lineno, f"feed rate must be > 0, got {fw.text!r}")
-                feed = fw.value * unit / 60.0
-                feeds_seen.append(feed)
-            if "distance" in gcodes:
-                absolute = gcodes["distance"][0] == 90
+        axis_words = [values[a] for a in _AXES if a in values]
+        arc_words = [values[a] for a in "IJKR" if a in values]
+        if gcodes.get("non-modal", (None,))[0] == 4.0:
+            self.dwell(lineno, gcodes, values, axis_words, arc_words)
+            axis_words = arc_words = []
+        else:
             motion_text = None
             if "motion" in gcodes:
-                motion, motion_text = gcodes["motion"]
-
-            axis_words = [values[a] for a in _AXES if a in values]
-            arc_words = [values[a] for a in "IJKR" if a in values]
-            if arc_words and motion not in (2, 3):
+                self.motion, motion_text = int(gcodes["motion"][0]), gcodes["motion"][1]
+            if arc_words and self.motion not in (2, 3):
                 raise self.error(
                     lineno, f"arc word {arc_words[0].text!r} used without G02/G03 motion"
                 )
-            if not axis_words and not arc_words:
-                continue  # modal settings only
-            if motion is None:
+            if axis_words or arc_words:
+                self.move(lineno, values, motion_text, exact_here)
+        if stop and self.moves:
+            self.move_blend[-1] = 0.0
+        return end
+
+    def dwell(self, lineno, gcodes, values, axis_words, arc_words) -> None:
+        gt = gcodes["non-modal"][1]
+        if "motion" in gcodes:
+            raise self.error(lineno, f"dwell {gt!r} and motion {gcodes['motion'][1]!r} on one line")
+        moving = [w for w in axis_words + arc_words if w.letter != "X"]
+        if moving:
+            raise self.error(lineno, f"dwell {gt!r} line cannot move ({moving[0].text!r})")
+        pw, xw = values.get("P"), values.get("X")
+        if pw is not None and xw is not None:
+            raise self.error(
+                lineno, f"dwell {gt!r} with both {pw.text!r} and {xw.text!r}: give one (s)"
+            )
+        tw = pw if pw is not None else xw
+        if tw is None:
+            raise self.error(lineno, f"dwell {gt!r} needs P<seconds> (or X<seconds>)")
+        if tw.value < 0:
+            raise self.error(lineno, f"dwell time must be >= 0 s, got {tw.text!r}")
+        t = tw.value
+        word = f"{gt} {tw.text}"
+        if not self.moves:
+            self.note(lineno, word, f"ignored: dwell {t:g} s before any motion (no motion yet)")
+            return
+        self.move_dwell[-1] += t
+        self.move_blend[-1] = 0.0
+        hint = ""
+        if tw.letter == "P" and "." not in tw.text:
+            hint = f" (P in seconds, RS274/NGC; a Fanuc control reads {tw.text} as ms)"
+        self.note(lineno, word, f"dwell {t:g} s{hint}")
+
+    def move(self, lineno, values, motion_text, exact_here) -> None:
+        motion = self.motion
+        if motion is None:
+            first = next(values[a] for a in "XYZIJKR" if a in values)
+            raise self.error(
+                lineno,
+                f"axis word {first.text!r} with no motion mode active "
+                "(program G00, G01, G02 or G03 first)",
+            )
+        label = motion_text if motion_text is not None else f"G{motion:02d} (modal)"
+        pos = self.pos
+        unit = self.unit
+        target = list(pos)
+        for k, a in enumerate(_AXES):
+            w = values.get(a)
+            if w is not None:
+                d = w.value * unit
+                target[k] = d if self.absolute else pos[k] + d
+                if not abs(target[k]) <= MAX_COORDINATE_M:
+                    raise self.error(
+                        lineno,
+                        f"coordinate {_short(w.text)!r} puts {a} at {target[k]:.3g} m; coordinates "
+                        f"must be within +-{MAX_COORDINATE_M:g} m (path length not finite "
+                        "or not a machine path)",
+                    )
+        for a in "IJKR":
+            w = values.get(a)
+            if w is not None and not abs(w.value * unit) <= 2 * MAX_COORDINATE_M:
                 raise self.error(
                     lineno,
-                    f"axis word {axis_words[0].text!r} with no motion mode active "
-                    "(program G00, G01, G02 or G03 first)",
+                    f"arc word {_short(w.text)!r} is {w.value * unit:.3g} m; must be within "
+                    f"+-{2 * MAX_COORDINATE_M:g} m",
                 )
-            label = motion_text if motion_text is not None else f"G{motion:02d} (modal)"
-
-            target = pos.copy()
-            for k, a in enumerate(_AXES):
-                if a in values:
-                    d = values[a].value * unit
-                    target[k] = d if absolute else pos[k] + d
-
-            if motion != 0 and feed is None:
-                raise self.error(
-                    lineno, f"feed move {label!r} before any feed rate (F word) was programmed"
+        if motion != 0 and self.feed is None:
+            raise self.error(
+                lineno, f"feed move {label!r} before any feed rate (F word) was programmed"
+            )
+        if self.first_units is None:
+            self.first_units = self.units_name
+        if motion in (0, 1):
+            dx, dy, dz = target[0] - pos[0], target[1] - pos[1], target[2] - pos[2]
+            if math.sqrt(dx * dx + dy * dy + dz * dz) <= ZERO_LENGTH_TOL_M:
+                return  # zero-length move: skipped, position unchanged
+            self.moves.append(
+                _LineMove(tuple(pos), tuple(target), None if motion == 0 else self.feed, lineno)
+            )
+        else:
+            self.moves.append(
+                self.arc(
+                    lineno,
+                    label,
+                    np.array(pos),
+                    np.array(target),
+                    self.plane,
+                    motion == 2,
+                    values,
+                    unit,
+                    self.feed,
                 )
-            if first_units is None:
-                first_units = units_name
-
-            if motion in (0, 1):
-                if np.linalg.norm(target - pos) <= ZERO_LENGTH_TOL_M:
-                    continue  # zero-length move: skipped, position unchanged
-                moves.append(_LineMove(pos, target, None if motion == 0 else feed, lineno))
-            else:
-                moves.append(
-                    self.arc(lineno, label, pos, target, plane, motion == 2, values, unit, feed)
-                )
-            pos = target
-        return moves, first_units, feeds_seen
+            )
+        self.move_blend.append(0.0 if exact_here else self.blend)
+        self.move_dwell.append(0.0)
+        self.pos = target
 
     def arc(self, lineno, label, start, end, plane, cw, values, unit, feed) -> _ArcMove:
         iu, iv, iw = _PLANES[plane]
@@ -435,19 +1134,32 @@ def parse_gcode(
     rapid_feed_m_s: float | None = None,
     source: str = "<string>",
 ) -> GcodeProgram:
-    """Parse G-code ``text`` into a `GcodeProgram` (conventions: module docstring).
+    """Parse G-code ``text`` into a `GcodeProgram` (rules: module docstring).
 
     ``start`` is the machine position before the first move (metres, 2 or 3 coordinates).
     ``rapid_feed_m_s`` is the feed used for G00 moves (default: the highest F programmed).
-    ``source`` names the program in error messages.
+    ``source`` names the program in error messages. Raises one ``ValueError`` listing every
+    bad line.
     """
     from contour_env.paths.geometry import PathGeometry
     from contour_env.paths.segments import Arc, Line
 
     if rapid_feed_m_s is not None and not (math.isfinite(rapid_feed_m_s) and rapid_feed_m_s > 0):
         raise ValueError(f"rapid_feed_m_s must be finite and > 0, got {rapid_feed_m_s!r}")
-    moves, units, feeds_seen = _Parser(source).parse(text, start)
+    parser = _Parser(source)
+    moves, units, feeds_seen = parser.parse(text, start)
     where = "" if source == "<string>" else f" [{source}]"
+    errors = parser.errors
+    if len(errors) == 1:
+        raise ValueError(f"{errors[0]}{where}")
+    if errors:
+        listed = "\n".join(errors[:MAX_LISTED_ERRORS])
+        more = len(errors) - MAX_LISTED_ERRORS
+        tail = f"\n... and {more} more bad lines" if more > 0 else ""
+        raise ValueError(
+            f"G-code program has {len(errors)} bad lines{where} (after the first, only "
+            f"line-local checks):\n{listed}{tail}"
+        )
     if not moves:
         raise ValueError(f"G-code program has no motion{where}")
 
@@ -463,7 +1175,7 @@ def parse_gcode(
     segments, feeds, is_rapid, lines = [], [], [], []
     for m in moves:
         if isinstance(m, _LineMove):
-            segments.append(Line(m.start.copy(), m.end.copy()))
+            segments.append(Line(m.start, m.end))
             is_rapid.append(m.feed is None)
             feeds.append(rapid if m.feed is None else m.feed)
         else:
@@ -479,6 +1191,8 @@ def parse_gcode(
     feedrate = float(cutting.max()) if cutting.size else float(rapid)
     dim = 2 if _is_planar_xy(moves) else 3
     path = PathGeometry.from_segments(segments, dim=dim)
+    blend = np.asarray(parser.move_blend, dtype=float)
+    blend[-1] = 0.0  # the program ends in a stop
     return GcodeProgram(
         segments=segments,
         segment_feeds_m_s=feeds_arr,
@@ -488,6 +1202,9 @@ def parse_gcode(
         source=source,
         segment_is_rapid=rapid_arr,
         segment_lines=np.asarray(lines, dtype=np.int64),
+        segment_blend_m=blend,
+        segment_dwell_s=np.asarray(parser.move_dwell, dtype=float),
+        notes=parser.notes,
     )
 
 
@@ -496,6 +1213,8 @@ def read_gcode(path_or_file, **kw) -> GcodeProgram:
 
     Keyword arguments go to `parse_gcode`; ``source`` defaults to the file's path. The
     extension is checked only for paths (case-insensitive); file objects are read as they are.
+    Bytes are decoded as UTF-8 (a byte-order mark is dropped; bytes that are not UTF-8 are
+    replaced, which matters only inside comments).
     """
     if hasattr(path_or_file, "read"):
         data = path_or_file.read()
@@ -512,5 +1231,5 @@ def read_gcode(path_or_file, **kw) -> GcodeProgram:
         data = p.read_bytes()
         kw.setdefault("source", str(p))
     if isinstance(data, bytes):
-        data = data.decode("utf-8", errors="replace")
+        data = data.decode("utf-8-sig", errors="replace")
     return parse_gcode(data, **kw)

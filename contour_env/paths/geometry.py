@@ -19,7 +19,6 @@ from .segments import (
     CubicTable,
     Line,
     arc_derivatives,
-    line_derivatives,
 )
 
 CONTINUITY_TOL_M = 1e-9  # largest gap between consecutive segments, m
@@ -146,9 +145,15 @@ class PathGeometry:
                 raise ValueError(
                     f"segments[{k}]: expected Line, Arc or Cubic, got {type(seg).__name__}"
                 )
-        for k in range(1, len(segments)):
-            gap = float(np.linalg.norm(segments[k].start_point - segments[k - 1].end_point))
-            if not gap <= CONTINUITY_TOL_M:
+        if len(segments) > 1:
+            # one vectorised check (the same norms as per pair), report the first gap
+            starts = np.array([s.start_point for s in segments[1:]])
+            ends_prev = np.array([s.end_point for s in segments[:-1]])
+            gaps = np.linalg.norm(starts - ends_prev, axis=1)
+            bad = np.nonzero(~(gaps <= CONTINUITY_TOL_M))[0]
+            if bad.size:
+                k = int(bad[0]) + 1
+                gap = float(gaps[k - 1])
                 raise ValueError(
                     f"segments[{k}]: starts {gap:.3g} m from the end of segments[{k - 1}] "
                     f"(a path must be continuous, gap ≤ {CONTINUITY_TOL_M:g} m)"
@@ -212,6 +217,17 @@ class PathGeometry:
         s = np.clip(np.asarray(s, dtype=np.float64).reshape(-1), 0.0, self.total_length)
         return np.clip(np.searchsorted(self.seg_s0, s, side="right") - 1, 0, self.n_segments - 1)
 
+    @cached_property
+    def _lines(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per segment (rows of non-lines unused): start p0, chord p1 − p0, length |chord| and
+        unit tangent, exactly as `line_derivatives` computes them from a packed row."""
+        p0 = np.ascontiguousarray(self.seg_data[:, 0:3])
+        chord = self.seg_data[:, 3:6] - p0
+        length = np.linalg.norm(chord, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tangent = chord / length[:, None]
+        return p0, chord, length, tangent
+
     def _eval_local(self, idx: np.ndarray, local: np.ndarray) -> dict:
         """Derivatives on segments idx at local arc lengths (clamped to [0, length])."""
         local = np.clip(local, 0.0, self.seg_length[idx])
@@ -219,13 +235,23 @@ class PathGeometry:
         out = {key: np.empty((n, 3)) for key in ("position", "d1", "d2", "d3")}
         types = self.seg_type[idx]
         for typ in (SEG_LINE, SEG_ARC, SEG_CUBIC):
-            sel = np.nonzero(types == typ)[0]
-            if sel.size == 0:
-                continue
+            sel = types == typ
+            if typ == SEG_LINE and sel.all():
+                sel = slice(None)  # only lines: no index lists, no gathers of the outputs
+            else:
+                sel = np.nonzero(sel)[0]
+                if sel.size == 0:
+                    continue
             k = idx[sel]
             if typ == SEG_LINE:
-                res = line_derivatives(self.seg_data[k], local[sel])
-            elif typ == SEG_ARC:
+                # line_derivatives' formulas on per-segment arrays (no (n, 16) row gather)
+                p0, chord, length, tangent = self._lines
+                out["position"][sel] = p0[k] + (local[sel] / length[k])[:, None] * chord[k]
+                out["d1"][sel] = tangent[k]
+                out["d2"][sel] = 0.0
+                out["d3"][sel] = 0.0
+                continue
+            if typ == SEG_ARC:
                 res = arc_derivatives(self.seg_data[k], local[sel])
             else:
                 row, table = self._cubics

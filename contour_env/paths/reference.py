@@ -11,6 +11,16 @@ import numpy as np
 from .feed import FeedProfile
 from .geometry import PathGeometry
 
+# Longest reference (samples) `ReferenceTrajectory.build` makes. The table stores 23 float64 per
+# step (time, s, ṡ, s̈, position 3, velocity 3, acceleration 3, frame 9, curvature, torsion):
+# 184 B, so 5,000,000 steps ≈ 0.92 GB; the env core adds ~0.1 kB per step of its own tables
+# (position/velocity/acceleration stack, scalars, float32 observation table) and building needs
+# transient copies of similar size, so such a setup peaks near 2-3 GB, what a workstation or a
+# CI runner can still hold. That is 500 s (8.3 min) of program at a 0.1 ms servo period, 83 min
+# at 1 ms.
+MAX_REFERENCE_STEPS = 5_000_000
+BYTES_PER_REFERENCE_STEP = 23 * 8
+
 
 @dataclass(frozen=True, eq=False)
 class ReferenceTrajectory:
@@ -21,7 +31,8 @@ class ReferenceTrajectory:
     = s̈ t + ṡ² d²p/ds² (n, 3) m/s²; ``frame`` (n, 3, 3) columns [t n b]; ``curvature`` (n,)
     1/m (signed for planar paths); ``torsion`` (n,) 1/m; ``servo_period_s`` T; ``dim`` (2 or 3,
     the path's). Frame convention: `PathGeometry`. n_steps = ceil((duration + settle) / T) + 1;
-    after the feed profile ends the reference holds the end point at rest.
+    after the feed profile ends the reference holds the end point at rest. `build` refuses more
+    than ``MAX_REFERENCE_STEPS`` (5,000,000, ≈ 0.92 GB of table) before allocating anything.
     """
 
     time: np.ndarray
@@ -62,7 +73,17 @@ class ReferenceTrajectory:
                 f"profile: built for a path of length {profile.total_length:.9g} m, "
                 f"this path is {path.total_length:.9g} m"
             )
-        n = math.ceil((profile.duration + settle) / T) + 1
+        n_float = (profile.duration + settle) / T
+        n = math.ceil(n_float) + 1 if n_float < MAX_REFERENCE_STEPS else MAX_REFERENCE_STEPS + 1
+        if n > MAX_REFERENCE_STEPS:
+            raise ValueError(
+                f"reference too long: a {profile.duration:.6g} s program plus {settle:g} s "
+                f"settle at servo_period_s = {T:g} s needs {n_float + 1:,.0f} steps, more than "
+                f"MAX_REFERENCE_STEPS = {MAX_REFERENCE_STEPS:,} (≈ "
+                f"{MAX_REFERENCE_STEPS * BYTES_PER_REFERENCE_STEP / 1e9:.2f} GB of reference, "
+                f"{MAX_REFERENCE_STEPS * T:,.0f} s at this servo period); shorten or split the "
+                "program, raise the feed, or blend its corners (G64)"
+            )
         t = np.arange(n, dtype=np.float64) * T
         s, sd, sdd = profile.sample(t)
         d = path.evaluate(s)

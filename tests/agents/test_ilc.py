@@ -31,7 +31,7 @@ from contour_env.plants.randomize import randomized
 
 ENV_ID = "contour_env/Contouring-v0"
 # a short sharp corner on the friction table: 3 mm + 3 mm at 20 mm/s (about 0.6 s per trial)
-SHORT_CORNER = "G21 G90 G17\nG01 X3 F1200\nG01 Y3\n"
+SHORT_CORNER = "G21 G90 G17 G61\nG01 X3 F1200\nG01 Y3\n"
 
 
 def short_env(**kw):
@@ -349,7 +349,7 @@ def test_stick_compensator_does_not_hunt_with_mass_variation(structural_mode):
     variants = randomized(base, 0.2, 4, seed=7)
     tr, rest, f_b, c = _standstill_after_corner(
         "vilcfd",
-        path="G21 G90 G17\nG01 X3 F1200\nG01 Y9\n",
+        path="G21 G90 G17 G61\nG01 X3 F1200\nG01 Y9\n",
         plant_params=variants,
         structural_mode=structural_mode,
     )

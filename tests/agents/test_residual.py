@@ -11,7 +11,7 @@ from contour_env import ENV_ID
 from contour_env.evaluation import evaluate
 from contour_env.plants.randomize import randomized
 
-SHORT = "G21 G90 G17\nG01 X2 F1200\nG01 Y2\n"
+SHORT = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"
 
 
 def _plant_for(name):

@@ -16,7 +16,7 @@ from contour_env import ENV_ID
 from contour_env.cli import main
 from contour_env.evaluation import evaluate, run_episode
 
-SHORT = "G21 G90 G17\nG01 X2 F1200\nG01 Y2\n"
+SHORT = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"
 TINY = dict(
     plant="friction-table",
     timesteps=300,

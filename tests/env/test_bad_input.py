@@ -84,8 +84,12 @@ def test_bad_env_arguments_name_the_parameter(kw, name):
 
 
 def test_malformed_gcode_names_line_and_word():
-    with pytest.raises(ValueError, match=r"line 2.*M03"):
-        gym.make(ENV_ID, plant="hsm2", path="G21 G90 G17 F600\nM03\nG01 X10 Y0\n")
+    # M03 (spindle on) is a setup word the reader accepts and reports; M98 (a subprogram
+    # call) would change the geometry and is refused, naming its line and word
+    with pytest.raises(ValueError, match=r"line 2.*M98"):
+        gym.make(ENV_ID, plant="hsm2", path="G21 G90 G17 F600\nM98 P100\nG01 X10 Y0\n")
+    env = gym.make(ENV_ID, plant="hsm2", path="G21 G90 G17 F600\nM03\nG01 X10 Y0\n")
+    assert "M03" in env.unwrapped.setup.program_summary
 
 
 def test_gcode_text_and_file(tmp_path):

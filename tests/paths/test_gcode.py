@@ -370,8 +370,8 @@ def test_read_gcode_errors(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.nc"):
         read_gcode(missing)
     bad = tmp_path / "bad.nc"
-    bad.write_text("G21\nG1 X1 F60\nM03\n")
-    with pytest.raises(ValueError, match=r"G-code line 3: unsupported word 'M03'.*bad\.nc"):
+    bad.write_text("G21\nG1 X1 F60\nM98 P100\n")
+    with pytest.raises(ValueError, match=r"G-code line 3: unsupported word 'M98'.*bad\.nc"):
         read_gcode(bad)
 
 
@@ -386,16 +386,15 @@ def test_read_gcode_file_objects():
 @pytest.mark.parametrize(
     "text, lineno, pattern",
     [
-        ("G21\nG1 X1 F60\nM03 S1000", 3, r"unsupported word 'M03' \(supported: G00 G01"),
-        ("G21\nS1000", 2, r"unsupported word 'S1000'"),
-        ("T1", 1, r"unsupported word 'T1'"),
-        ("G1 X1 F60\nG04 P1", 2, r"unsupported word 'G04'"),
+        # M/S/T/O words, G04 and G91.1 are now read (tests/paths/test_gcode_shop.py)
+        ("G21\nG1 X1 F60\nM98 P1000", 3, r"unsupported word 'M98' \(subprogram call\)"),
+        ("G1 X1 F60\nG04", 2, r"dwell 'G04' needs P"),
         ("G41 D1", 1, r"unsupported word 'G41'"),
         ("G1 X1 F60 A5", 1, r"unsupported word 'A5'"),
-        ("O1000", 1, r"unsupported word 'O1000'"),
-        ("G91.1", 1, r"unsupported word 'G91.1'"),
+        ("O1000 G1 X1", 1, r"unsupported word 'O1000' with other words"),
+        ("G90.1", 1, r"unsupported word 'G90.1'"),
         ("G17.1", 1, r"unsupported word 'G17.1'"),
-        ("m3", 1, r"unsupported word 'm3'"),
+        ("m98", 1, r"unsupported word 'm98'"),
         ("G1 X F60", 1, r"word 'X' has no number"),
         ("G\nG1 X1", 1, r"word 'G' has no number"),
         ("G1 X1.2.3 F60", 1, r"cannot parse the number in word 'X1\.2\.3'"),
@@ -403,7 +402,8 @@ def test_read_gcode_file_objects():
         ("G1 X-- F60", 1, r"cannot parse the number in word 'X--'"),
         ("G1 X. F60", 1, r"cannot parse the number in word 'X\.'"),
         ("G1 X" + "9" * 400 + " F60", 1, r"cannot parse the number in word 'X999"),
-        ("#1=5", 1, r"unexpected character '#'"),
+        ("#1=5", 1, r"unsupported '#' parameters"),
+        ("G1 X1 F60 $", 1, r"cannot parse the number in word 'F60\$'"),
         ("G1 X1 F60 (open comment", 1, r"unclosed comment '\(open comment'"),
         ("F60\nG1 G2 X1 R5", 2, r"two motion codes on one line: 'G1' and 'G2'"),
         ("F60\nG00 G01 X1", 2, r"two motion codes.*'G00' and 'G01'"),
@@ -441,8 +441,8 @@ def test_bad_input_raises_with_line_and_word(text, lineno, pattern):
 
 
 def test_error_line_numbers_count_blank_and_comment_lines():
-    text = "%\n(comment)\n\nG21 G90\n; another\nG1 X1 F60\nM30\n%"
-    with pytest.raises(ValueError, match=r"^G-code line 7: unsupported word 'M30'"):
+    text = "%\n(comment)\n\nG21 G90\n; another\nG1 X1 F60\nM98 P1\n%"
+    with pytest.raises(ValueError, match=r"^G-code line 7: unsupported word 'M98'"):
         parse_gcode(text)
 
 

@@ -23,7 +23,7 @@ def _script(name):
 @pytest.fixture(scope="module")
 def tiny_model(tmp_path_factory):
     gcode = tmp_path_factory.mktemp("g") / "short.nc"
-    gcode.write_text("G21 G90 G17\nG01 X2 F1200\nG01 Y2\n")
+    gcode.write_text("G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n")
     out = tmp_path_factory.mktemp("runs") / "tiny"
     cfg = TrainConfig(
         plant="friction-table", gcode=(str(gcode),), algo="sac", timesteps=200, seed=0,
@@ -47,7 +47,7 @@ def test_install_copies_the_model_files_and_the_copy_is_a_working_agent(
     from contour_env import ENV_ID
     from contour_env.evaluation import evaluate
 
-    path = "G21 G90 G17\nG01 X2 F1200\nG01 Y2\n"
+    path = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"
     a = evaluate(gym.make(ENV_ID, plant="friction-table", path=path), ResidualAgent(dest))
     b = evaluate(gym.make(ENV_ID, plant="friction-table", path=path), ResidualAgent(tiny_model))
     assert a == b
