@@ -323,6 +323,13 @@ class AdaptiveCCCController(Controller):
         cols = [acc, vel] + ([np.sign(vel)] if self.friction else [])
         return np.stack(cols, axis=1)
 
+    def compiled_form(self):
+        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
+        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
+        from .compiled import compiled_form
+
+        return compiled_form(self)
+
     def act(self, signals: dict) -> np.ndarray:
         n = self.n_axes
         E = signals["reference_position"] - signals["measured_position"]

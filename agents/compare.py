@@ -82,8 +82,15 @@ def compare(
     # bind every controller first: a gain or plant it cannot work with (jee-ccc on a force
     # drive, a per-axis value of the wrong length) is an error before any row has run
     bound = []
+    # one env serves every fixed controller (each run resets it with the same seed; building
+    # the env is a large part of a compiled run's time); a residual agent gets its own
+    shared = None
     for name in controllers:
-        env = gym.make(ENV_ID, **env_kwargs)
+        if split_spec(name)[0] == RESIDUAL:
+            env = gym.make(ENV_ID, **env_kwargs)
+        else:
+            shared = shared or gym.make(ENV_ID, **env_kwargs)
+            env = shared
         bound.append((name, env, bound_controller(name, env, model)))
     for name, env, controller in bound:
         setup = env.unwrapped.setup
@@ -144,7 +151,10 @@ def robustness(
         count = np.zeros(episodes)
         trace = np.full((n, episodes), np.nan) if traces else None
         steps = 0
-        for i in range(n):
+        fast = _run_batch_compiled(venv, controller, sq, peak, count, failed, trace)
+        if fast is not None:
+            steps = fast
+        for i in range(n if fast is None else 0):
             action, _ = controller.predict(obs)
             obs, _, term, trunc, info = venv.step(action)
             eps = np.where(np.isfinite(info["contour_error"]), info["contour_error"], np.inf)
@@ -181,6 +191,77 @@ def robustness(
         if progress:
             progress(name, row)
     return rows
+
+
+# opt in to the compiled robustness loop (see _run_batch_compiled)
+BATCH_ENV_VAR = "CONTOUR_ENV_COMPILED_BATCH"
+
+
+def _run_batch_compiled(venv, controller, sq, peak, count, failed, trace) -> int | None:
+    """The robustness loop compiled (every variant's episode on its own thread; the same
+    sums, to the bit, as the Python loop), from the reset state of ``venv``; returns the
+    number of steps the longest episode ran, or None (nothing done) when the controller has no
+    compiled form or the env is wrapped. ``CONTOUR_ENV_COMPILED=0`` keeps the Python loop.
+
+    Opt-in (``CONTOUR_ENV_COMPILED_BATCH=1``): the parallel loop takes about two minutes to
+    compile on a fresh checkout (then it is cached), longer than the Python loop needs for a
+    typical ``--randomize`` run."""
+    import os
+
+    from contour_env.env import rollout
+
+    if os.environ.get(BATCH_ENV_VAR, "0") != "1":
+        return None
+    if not rollout.compiled_allowed() or rollout.plain_vector_env(venv) is None:
+        return None
+    form = rollout.compiled_form_of(controller)
+    if form is None:
+        return None
+    core = venv.core
+    B = core.n_envs
+    bad = np.zeros(B, dtype=np.int64)
+    lengths = np.zeros(B, dtype=np.int64)
+    trace_arr = trace if trace is not None else np.empty((0, B))
+    form.run_batch(core, sq, peak, count, failed, bad, trace_arr, lengths)
+    if bad.any():
+        b = int(np.argmax(bad))
+        raise ValueError(
+            f"action: must be finite, got {core.action[b].tolist()} (env {b}); the action is "
+            "the per-axis command in [-1, 1] of the force limit"
+        )
+    return int(lengths.max(initial=0))
+
+
+def robustness_compiled_steps(spec: str, n_envs: int, **env_kwargs) -> tuple[int, float]:
+    """(env-steps, seconds) of one compiled robustness batch of ``spec`` over ``n_envs``
+    ±10 % plant variants (for the benchmark; the loop is compiled / loaded first)."""
+    import time
+
+    from contour_env.env import rollout
+
+    probe = gym.make(ENV_ID, **env_kwargs).unwrapped
+    variants = randomized(probe.plant.params, 0.1, n_envs, seed=0)
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=n_envs,
+        vectorization_mode="vector_entry_point",
+        plant_params=variants,
+        **env_kwargs,
+    )
+    controller = make_controller(spec).bind(venv)
+    B = n_envs
+    for timed in (False, True):
+        venv.reset(seed=0)
+        controller.reset()
+        form = rollout.compiled_form_of(controller)
+        args = (np.zeros(B), np.zeros(B), np.zeros(B), np.zeros(B, dtype=bool))
+        lengths = np.zeros(B, dtype=np.int64)
+        t0 = time.perf_counter()
+        form.run_batch(venv.core, *args, np.zeros(B, dtype=np.int64), np.empty((0, B)), lengths)
+        dt = time.perf_counter() - t0
+        if timed:
+            return int(lengths.sum()), dt
+    raise AssertionError("unreachable")
 
 
 def significant(x: float, digits: int = 3) -> str:

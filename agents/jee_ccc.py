@@ -77,6 +77,13 @@ class JeeCCCController(Controller):
             self._prev[mask] = 0.0
             self._started[mask] = False
 
+    def compiled_form(self):
+        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
+        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
+        from .compiled import compiled_form
+
+        return compiled_form(self)
+
     def act(self, signals: dict) -> np.ndarray:
         E = signals["reference_position"] - signals["measured_position"]
         t = signals["frame"][:, :, 0]

@@ -76,6 +76,13 @@ class PDController(Controller):
             else per_axis("D", self._D_user, n)
         )
 
+    def compiled_form(self):
+        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
+        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
+        from .compiled import compiled_form
+
+        return compiled_form(self)
+
     def act(self, signals: dict) -> np.ndarray:
         e = signals["reference_position"] - signals["measured_position"]
         de = signals["reference_velocity"] - signals["measured_velocity"]

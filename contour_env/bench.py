@@ -11,6 +11,18 @@ A window lasts ``seconds / repeats`` or one whole episode, whichever is longer: 
 one episode of the default case is 8 M env-steps, so the full benchmark takes a minute or
 more whatever ``seconds`` says. ``quick=True`` (``contour-env bench --quick``) is a first
 look in well under 30 s: one window per figure, 0.3 s, 1, 64 and 1024 envs.
+
+After the tracking rows come three more (at 4096 envs; 1024 with ``quick``):
+
+- exploration: the same envs driven by uniform random actions in [-1, 1] (what an RL agent
+  sends early in training: guard terminations and resets) and by small random actions
+  (±0.01, a random walk around standstill), each with its ratio to the tracking row;
+- contended: the tracking row again while a second process spins on the CPU (the benchmark
+  starts ``python -c "while True: pass"`` itself and kills it afterwards, whatever happens),
+  CartPole alternating as before, with the ratio to the quiet row;
+- controller in the loop: the rows of ``contour_env.bench_controllers.controller_rates`` (a
+  controller computing each action from the env's signals, single env and 4096 envs) with the
+  ratio to the env's own single-env rate; skipped with a note where that module is missing.
 """
 
 from __future__ import annotations
@@ -18,6 +30,8 @@ from __future__ import annotations
 import os
 import platform
 import statistics
+import subprocess
+import sys
 import time
 
 import gymnasium as gym
@@ -32,6 +46,10 @@ DEFAULT_SECONDS = 2.0
 QUICK_SIZES = (1, 64, 1024)
 QUICK_REPEATS = 1
 QUICK_SECONDS = 0.3
+# the exploration and contended rows: at this many envs (quick: the largest quick size)
+EXTRA_ENVS = 4096
+QUICK_EXTRA_ENVS = 1024
+SMALL_ACTION = 0.01
 
 
 def _time_single(env, actions: np.ndarray, min_seconds: float) -> float:
@@ -72,6 +90,53 @@ def _alternate(ours, yardstick, repeats: int) -> tuple[list[float], list[float]]
     return a, b
 
 
+def start_busy_process() -> subprocess.Popen:
+    """A second process that keeps one core busy (a spinning Python loop), for the contended
+    row; the caller kills it (:func:`stop_busy_process`)."""
+    return subprocess.Popen(
+        [sys.executable, "-c", "while True: pass"],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+
+def stop_busy_process(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait()
+
+
+def _vector_rows(case, n, actions, rng, window, repeats):
+    # the envs and action arrays of one vector size: tracking (the servo's commands with a
+    # small seeded perturbation per env), CartPole's random actions
+    dim = actions.shape[1]
+    steps = len(actions)  # whole episodes: start-up, cruise, reversals, stop
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", case=case)
+    acts = (actions[:steps, None, :] * (1.0 + 0.01 * rng.standard_normal((steps, n, dim)))).astype(
+        np.float32
+    )
+    _time_vector(venv, acts[:5], 0.0)
+    cvenv = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
+    cacts = rng.integers(0, 2, (min(steps, 500), n))
+
+    def measure():
+        ours, theirs = _alternate(
+            lambda: _time_vector(venv, acts, window),
+            lambda: _time_vector(cvenv, cacts, window),
+            repeats,
+        )
+        return {
+            "num_envs": n,
+            "env_steps_per_s": statistics.median(ours),
+            "cartpole_env_steps_per_s": statistics.median(theirs),
+            "env_steps_per_s_runs": ours,
+            "cartpole_env_steps_per_s_runs": theirs,
+        }
+
+    return venv, cvenv, measure
+
+
 def tracking_actions(case: str, n_steps: int, bandwidth_rad_s: float = 60.0) -> np.ndarray:
     """Actions of a simple tracking servo (nominal-model feedforward + PD on the measured
     position, critically damped at ``bandwidth_rad_s``) recorded on one episode of ``case``:
@@ -104,6 +169,8 @@ def run_bench(
     sizes=None,
     repeats: int | None = None,
     quick: bool = False,
+    extra_envs: int | None = None,
+    controllers: bool = True,
     progress=None,
 ) -> dict:
     """Measure throughput with the actions of :func:`tracking_actions` replayed (the policy's
@@ -112,7 +179,10 @@ def run_bench(
     ``seconds``: measuring time per figure, split into ``repeats`` alternating windows (each
     at least one whole episode); the figure is the median window rate. ``sizes``: the vector
     env sizes. Defaults: 2 s, 5 windows, 1/64/1024/4096 envs; with ``quick`` 0.3 s, one
-    window, 1/64/1024 envs (an explicit argument still wins).
+    window, 1/64/1024 envs (an explicit argument still wins). ``extra_envs``: the vector size
+    of the exploration and contended rows (default 4096; 1024 with ``quick``; 0: no such rows).
+    ``controllers``: add the controller-in-the-loop rows (where contour_env.bench_controllers
+    exists).
     """
     import contour_env  # noqa: F401  (registers the env)
 
@@ -140,7 +210,6 @@ def run_bench(
         "cpu_count": os.cpu_count(),
     }
     env = gym.make(ENV_ID, case=case)
-    dim = env.action_space.shape[0]
     actions = tracking_actions(case, env.unwrapped.core.n_steps - 1)
     _time_single(env, actions[:200], 0.0)  # compile / warm up
     cp = gym.make("CartPole-v1")
@@ -160,38 +229,114 @@ def run_bench(
             f"(CartPole {out['cartpole_single_steps_per_s']:,.0f})"
         )
     out["vector"] = []
-    for n in sizes:
-        venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", case=case)
-        steps = len(actions)  # whole episodes: start-up, cruise, reversals, stop
-        # every env replays the servo's commands with its own small seeded perturbation
-        acts = (
-            actions[:steps, None, :] * (1.0 + 0.01 * rng.standard_normal((steps, n, dim)))
-        ).astype(np.float32)
-        _time_vector(venv, acts[:5], 0.0)
-        cvenv = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
-        cacts = rng.integers(0, 2, (min(steps, 500), n))
-        ours, theirs = _alternate(
-            lambda venv=venv, acts=acts: _time_vector(venv, acts, window),
-            lambda cvenv=cvenv, cacts=cacts: _time_vector(cvenv, cacts, window),
-            repeats,
-        )
-        row = {
-            "num_envs": n,
-            "env_steps_per_s": statistics.median(ours),
-            "cartpole_env_steps_per_s": statistics.median(theirs),
-            "env_steps_per_s_runs": ours,
-            "cartpole_env_steps_per_s_runs": theirs,
-        }
-        out["vector"].append(row)
-        venv.close()
-        cvenv.close()
-        if progress:
-            progress(
-                f"vector {n:5d} envs: {row['env_steps_per_s']:,.0f} env-steps/s "
-                f"(windows {min(ours):,.0f}–{max(ours):,.0f}; "
-                f"CartPole {row['cartpole_env_steps_per_s']:,.0f})"
+    if extra_envs is None:
+        extra_envs = QUICK_EXTRA_ENVS if quick else EXTRA_ENVS
+    extra_n = int(extra_envs)
+    sizes = list(sizes)
+    for n in sizes + ([] if extra_n in sizes or extra_n < 1 else [extra_n]):
+        venv, cvenv, measure = _vector_rows(case, n, actions, rng, window, repeats)
+        try:
+            row = measure()
+            if n in sizes:
+                out["vector"].append(row)
+                if progress:
+                    progress(_vector_line(f"vector {n:5d} envs", row))
+            if n != extra_n:
+                continue
+            quiet = row
+            out["exploration"] = _exploration(venv, quiet, len(actions), rng, window, repeats)
+            if progress:
+                for r in out["exploration"]:
+                    progress(
+                        f"{r['label']} {n} envs: {r['env_steps_per_s']:,.0f} env-steps/s "
+                        f"(ratio to tracking {r['ratio_to_tracking']:.2f})"
+                    )
+            busy = start_busy_process()
+            try:
+                time.sleep(0.1)
+                row = measure()
+            finally:
+                stop_busy_process(busy)
+            row["ratio_to_quiet"] = row["env_steps_per_s"] / quiet["env_steps_per_s"]
+            row["cartpole_ratio_to_quiet"] = (
+                row["cartpole_env_steps_per_s"] / quiet["cartpole_env_steps_per_s"]
             )
+            row["contention"] = "a second process spinning on the CPU"
+            out["contended"] = row
+            if progress:
+                progress(
+                    _vector_line(f"contended {n} envs", row)
+                    + f"; ratio to quiet {row['ratio_to_quiet']:.2f}"
+                )
+        finally:
+            venv.close()
+            cvenv.close()
+    if controllers:
+        out["controllers"], out["controllers_note"] = _controller_rows(
+            quick, out["single_env_steps_per_s"]
+        )
+    else:
+        out["controllers"], out["controllers_note"] = (
+            [],
+            "controller-in-the-loop rows not asked for",
+        )
+    if progress:
+        if out["controllers"]:
+            for r in out["controllers"]:
+                progress(
+                    f"{r['name']}: {r['steps_per_s']:,.0f} "
+                    f"(ratio to the env's single-env rate {r['ratio_to_env']:.2f})"
+                )
+        else:
+            progress(out["controllers_note"])
     return out
+
+
+def _vector_line(label: str, row: dict) -> str:
+    runs = row["env_steps_per_s_runs"]
+    return (
+        f"{label}: {row['env_steps_per_s']:,.0f} env-steps/s "
+        f"(windows {min(runs):,.0f}–{max(runs):,.0f}; "
+        f"CartPole {row['cartpole_env_steps_per_s']:,.0f})"
+    )
+
+
+def _exploration(venv, tracking_row, steps, rng, window, repeats) -> list:
+    # random actions instead of the servo's: uniform over the whole range (guard terminations
+    # and autoresets), and small (a random walk around standstill). No phase of the episode to
+    # cover here, so a window is ``window`` seconds of passes over 500 steps
+    steps = min(steps, 500)
+    n = venv.num_envs
+    dim = venv.single_action_space.shape[0]
+    rows = []
+    for label, amp in (("uniform random actions", 1.0), ("small random actions", SMALL_ACTION)):
+        acts = rng.uniform(-amp, amp, (steps, n, dim)).astype(np.float32)
+        runs = [_time_vector(venv, acts, window) for _ in range(repeats)]
+        rate = statistics.median(runs)
+        rows.append(
+            {
+                "label": label,
+                "amplitude": amp,
+                "num_envs": n,
+                "env_steps_per_s": rate,
+                "env_steps_per_s_runs": runs,
+                "ratio_to_tracking": rate / tracking_row["env_steps_per_s"],
+            }
+        )
+    return rows
+
+
+def _controller_rows(quick: bool, single_rate: float) -> tuple[list, str]:
+    # controller-in-the-loop figures from contour_env.bench_controllers, where present
+    try:
+        from .bench_controllers import controller_rates
+    except ImportError as e:
+        return [], f"controller-in-the-loop rows skipped ({e})"
+    rows = [
+        {"name": name, "steps_per_s": float(rate), "ratio_to_env": float(rate) / single_rate}
+        for name, rate in controller_rates(quick)
+    ]
+    return rows, "ratio: to the env's own single-env steps/s"
 
 
 def format_bench(res: dict) -> str:
@@ -213,4 +358,28 @@ def format_bench(res: dict) -> str:
             f"{'(' + spread(row.get('env_steps_per_s_runs', [])) + ')':>16s}"
             f"{row['cartpole_env_steps_per_s']:16,.0f}"
         )
+    for row in res.get("exploration", []):
+        lines.append(
+            f"{row['label'] + ', ' + str(row['num_envs']) + ' envs':28s}"
+            f"{row['env_steps_per_s']:16,.0f}"
+            f"{'(' + spread(row['env_steps_per_s_runs']) + ')':>16s}"
+            f"{'':16s}  ratio to tracking {row['ratio_to_tracking']:.2f}"
+        )
+    row = res.get("contended")
+    if row:
+        lines.append(
+            f"{'contended ' + str(row['num_envs']) + ' envs':28s}"
+            f"{row['env_steps_per_s']:16,.0f}"
+            f"{'(' + spread(row['env_steps_per_s_runs']) + ')':>16s}"
+            f"{row['cartpole_env_steps_per_s']:16,.0f}"
+            f"  ratio to quiet {row['ratio_to_quiet']:.2f} "
+            f"(CartPole {row['cartpole_ratio_to_quiet']:.2f})"
+        )
+    for row in res.get("controllers", []):
+        lines.append(
+            f"{row['name']}: {row['steps_per_s']:,.0f}; ratio to the env's single-env rate "
+            f"{row['ratio_to_env']:.2f}"
+        )
+    if not res.get("controllers") and res.get("controllers_note"):
+        lines.append(res["controllers_note"])
     return "\n".join(lines)

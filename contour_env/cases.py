@@ -437,6 +437,13 @@ def _cached_setup(*args):
     return _make_setup(*args)
 
 
+def _is_real_number(value) -> bool:
+    # a real number, not a bool (True is no feed rate) nor a complex or a string
+    return not isinstance(value, (bool, np.bool_)) and isinstance(
+        value, (int, float, np.integer, np.floating)
+    )
+
+
 def build_setup(
     case=None,
     plant=None,
@@ -473,6 +480,27 @@ def build_setup(
         )
     if case is not None and not isinstance(case, str):
         raise ValueError(f"case: expected a case name, got {type(case).__name__}")
+    for label, value, rule in (
+        ("feedrate_m_s", feedrate_m_s, "> 0"),
+        ("max_accel_m_s2", max_accel_m_s2, "> 0"),
+        ("max_jerk_m_s3", max_jerk_m_s3, "> 0"),
+        ("settle_time_s", settle_time_s, ">= 0"),
+        ("rapid_feed_m_s", rapid_feed_m_s, "> 0"),
+    ):
+        # checked before the cache: True == 1 would otherwise find the setup of 1 m/s
+        if value is not None and not (
+            _is_real_number(value)
+            and math.isfinite(value)
+            and (value >= 0 if rule == ">= 0" else value > 0)
+        ):
+            raise ValueError(f"{label}: must be a finite number {rule}, got {value!r}")
+    for label, value in (
+        ("ideal", ideal),
+        ("structural_mode", structural_mode),
+        ("strict", strict),
+    ):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"{label}: must be True or False, got {value!r}")
     try:
         hash((case, plant, path))
         hashable = True

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -339,6 +340,8 @@ def cmd_stability(args) -> int:
                 plant = json.load(fh)
         except json.JSONDecodeError as exc:
             raise ValueError(f"--params {args.params}: not valid JSON ({exc})") from None
+        except OSError as exc:
+            raise ValueError(f"--params {args.params}: {exc.strerror or exc}") from None
     kw = {"radius_m": args.radius}
     if args.kp is not None:
         kw["kp"] = args.kp
@@ -602,14 +605,56 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# options that name an output file or folder: checked before the command runs (a `train` of
+# hours must not fail at its first write)
+OUTPUT_FILE_OPTIONS = ("json", "plot", "save")
+OUTPUT_DIR_OPTIONS = ("out",)
+
+
+def _option_of(args, path) -> str | None:
+    for dest, value in vars(args).items():
+        if (
+            value is not None
+            and isinstance(value, (str, os.PathLike))
+            and (os.fspath(value) == os.fspath(path))
+        ):
+            return "--" + dest.replace("_", "-")
+    return None
+
+
+def _check_outputs(args) -> None:
+    from .io import check_output_dir, check_output_file
+
+    for dests, check in (
+        (OUTPUT_FILE_OPTIONS, check_output_file),
+        (OUTPUT_DIR_OPTIONS, check_output_dir),
+    ):
+        for dest in dests:
+            value = getattr(args, dest, None)
+            if value is not None:
+                check(value)
+
+
 def main(argv=None) -> int:
+    from .io import OutputPathError
+
     parser = build_parser()
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4)
     try:
+        _check_outputs(args)
         return args.func(args)
+    except OutputPathError as exc:
+        option = _option_of(args, exc.path)
+        print(f"error: {option + ': ' if option else ''}{exc}", file=sys.stderr)
+        return 2
     except (ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        # a file that cannot be read or written (permission, a folder named as a file, ...)
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
 
 

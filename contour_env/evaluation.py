@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .env import kernel as K
+from .env.rollout import compiled_allowed, empty_record, episode_record, try_compiled_episode
 from .metrics import EpisodeRecord, score
 
 
@@ -19,22 +20,27 @@ def _unwrap(env):
     return core
 
 
-def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) -> EpisodeRecord:
-    """Run ``env`` from ``reset(seed=seed)`` to the end with ``policy``; return the record."""
+def run_episode(
+    env, policy=None, *, seed: int = 0, deterministic: bool = True, compiled: bool | None = None
+) -> EpisodeRecord:
+    """Run ``env`` from ``reset(seed=seed)`` to the end with ``policy``; return the record.
+
+    A classical controller with a compiled form (``pd``, ``ccc``, ``adaptive-ccc``,
+    ``jee-ccc``) on an unwrapped, non-rendering env runs as one compiled loop
+    (:mod:`contour_env.env.rollout`), with the same record to the bit; ``compiled=False`` (or
+    ``CONTOUR_ENV_COMPILED=0``) forces the Python loop, ``None`` (default) takes the compiled
+    one where it applies."""
     core = _unwrap(env)
+    if compiled_allowed(compiled):
+        record = try_compiled_episode(env, policy, seed)
+        if record is not None:
+            return record
     if policy is not None and hasattr(policy, "bind") and getattr(policy, "_env", None) is None:
         policy.bind(env)  # a classical controller reads the servo signals of this env
     obs, _ = env.reset(seed=seed)
     n_max = core.n_steps - 1
     d = core.dim
-    rec = {
-        "time": np.empty(n_max),
-        "contour_error": np.empty(n_max),
-        "tracking_error": np.empty((n_max, d)),
-        "force": np.empty((n_max, d)),
-        "position": np.empty((n_max, d)),
-        "reference": np.empty((n_max, d)),
-    }
+    rec = empty_record(core)
     zero = np.zeros(d, dtype=np.float32)
     state = None
     episode_start = np.ones((1,), dtype=bool)
@@ -62,30 +68,10 @@ def run_episode(env, policy=None, *, seed: int = 0, deterministic: bool = True) 
         if terminated or truncated:
             reason = info.get("termination_reason")
             break
-    sl = slice(0, n)
-    force = rec["force"][sl]
-    limit = core.setup.plant.params.force_limit_N
-    # rapid (G00) steps: the flag of the reference index each recorded step ended at
-    step_is_rapid = getattr(core.setup, "step_is_rapid", None)
-    rapid = None
-    if step_is_rapid is not None:
-        rapid = step_is_rapid[np.minimum(np.arange(1, n + 1), core.n_steps - 1)].copy()
-    return EpisodeRecord(
-        time=rec["time"][sl],
-        contour_error=rec["contour_error"][sl],
-        tracking_error=rec["tracking_error"][sl],
-        force=force,
-        saturated=np.abs(force) >= limit * (1 - 1e-12),
-        position=rec["position"][sl],
-        reference=rec["reference"][sl],
-        force_limit=limit.copy(),
-        termination_reason=reason,
-        n_steps_planned=n_max,
-        encoder_resolution_m=np.array(core.setup.plant.params.encoder_resolution_m, dtype=float),
-        rapid=rapid,
-    )
+    return episode_record(core, rec, n, reason)
 
 
-def evaluate(env, policy=None, *, seed: int = 0) -> dict:
-    """Metrics of one episode of ``policy`` on ``env`` (the project's one scoring function)."""
-    return score(run_episode(env, policy, seed=seed))
+def evaluate(env, policy=None, *, seed: int = 0, compiled: bool | None = None) -> dict:
+    """Metrics of one episode of ``policy`` on ``env`` (the project's one scoring function);
+    ``compiled`` as :func:`run_episode`."""
+    return score(run_episode(env, policy, seed=seed, compiled=compiled))

@@ -50,9 +50,69 @@ def apply_default_mode(path, directory: bool | None = None) -> None:
     os.chmod(path, default_mode(directory))
 
 
+class OutputPathError(ValueError):
+    """An output path that cannot be written (its folder is a file, it names a folder, no
+    permission, ...). ``path`` is the path as given; the message names the path and why;
+    ``contour_env.cli.main`` adds the option that gave it."""
+
+    def __init__(self, path, reason: str):
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot write {os.fspath(path)}: {reason}")
+
+
+def _existing_ancestor(path: Path) -> Path:
+    parent = path.parent
+    while not os.path.lexists(parent) and parent != parent.parent:
+        parent = parent.parent
+    return parent
+
+
+def check_output_file(path) -> Path:
+    """``path`` as a Path if a file can be written there (folders made as needed), else
+    :class:`OutputPathError` saying why. Nothing is created."""
+    p = Path(path)
+    if str(path) == "" or p.name in ("", ".", ".."):
+        raise OutputPathError(path, "not a file name")
+    if p.is_dir():
+        raise OutputPathError(path, "it is a directory")
+    _check_parent(path, p.parent)
+    return p
+
+
+def check_output_dir(path) -> Path:
+    """``path`` as a Path if it is, or can be made as, a writable folder, else
+    :class:`OutputPathError`. Nothing is created."""
+    p = Path(path)
+    if str(path) == "":
+        raise OutputPathError(path, "not a folder name")
+    if os.path.lexists(p):
+        if not p.is_dir():
+            raise OutputPathError(path, "it exists and is not a directory")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise OutputPathError(path, "no permission to write in it")
+        return p
+    _check_parent(path, p)
+    return p
+
+
+def _check_parent(given, p: Path) -> None:
+    # the folder p (to be made if missing): its nearest existing ancestor must be a writable
+    # directory
+    anc = p if os.path.lexists(p) else _existing_ancestor(p)
+    if not anc.is_dir():
+        raise OutputPathError(given, f"{anc} is not a directory")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise OutputPathError(given, f"no permission to write in {anc}")
+
+
 def _tmp_for(path: Path, suffix: str) -> tuple[int, str]:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    check_output_file(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    except OSError as exc:
+        raise OutputPathError(path, exc.strerror or str(exc)) from exc
 
 
 def atomic_save(path, save: Callable[[str], object], suffix: str | None = None) -> Path:

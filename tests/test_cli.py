@@ -55,7 +55,11 @@ def test_gcode_without_plant_is_a_clean_error():
 def test_bench_small(tmp_path, monkeypatch):
     from contour_env import bench
 
-    res = bench.run_bench("hsm2-circle-III", seconds=0.05, sizes=(1, 8), repeats=3)
+    # the exploration/contended rows at 8 envs; the controller rows are tested below (the
+    # full bench's 4096-env controller row compiles the parallel loop: minutes)
+    res = bench.run_bench(
+        "hsm2-circle-III", seconds=0.05, sizes=(1, 8), repeats=3, extra_envs=8, controllers=False
+    )
     assert res["single_env_steps_per_s"] > 0
     assert [r["num_envs"] for r in res["vector"]] == [1, 8]
     assert "CartPole" in bench.format_bench(res)
@@ -65,6 +69,14 @@ def test_bench_small(tmp_path, monkeypatch):
         assert len(runs) == 3 and len(row["cartpole_env_steps_per_s_runs"]) == 3
         assert row["env_steps_per_s"] == sorted(runs)[1]
     assert len(res["single_env_steps_per_s_runs"]) == 3
+
+
+def test_bench_controller_rows_quick():
+    from contour_env.bench_controllers import controller_rates
+
+    rows = controller_rates(quick=True)
+    assert [label for label, _ in rows] == ["controller in the loop, single env (pd), steps/s"]
+    assert all(rate > 0 for _, rate in rows)
 
 
 @pytest.mark.parametrize(

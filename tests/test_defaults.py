@@ -83,13 +83,19 @@ def test_the_other_notes_keep_their_wording_with_computed_numbers():
 
 
 def test_bench_quick_is_one_short_window_without_4096_envs():
-    from contour_env.bench import run_bench
+    from contour_env.bench import QUICK_EXTRA_ENVS, QUICK_SIZES, format_bench, run_bench
 
-    res = run_bench("hsm2-circle-III", quick=True, sizes=(1,))
+    # the exploration and contended rows at 64 envs here (1024 in the real --quick)
+    res = run_bench("hsm2-circle-III", quick=True, sizes=(1,), extra_envs=64, controllers=False)
     assert res["quick"] and res["repeats"] == 1 and res["seconds"] == 0.3
     assert len(res["single_env_steps_per_s_runs"]) == 1
     assert [r["num_envs"] for r in res["vector"]] == [1]
     assert res["single_env_steps_per_s"] > 0
-    from contour_env.bench import QUICK_SIZES
+    assert [r["amplitude"] for r in res["exploration"]] == [1.0, 0.01]
+    assert all(len(r["env_steps_per_s_runs"]) == 1 for r in res["exploration"])
+    assert res["contended"]["num_envs"] == 64 and res["contended"]["ratio_to_quiet"] > 0
+    assert len(res["contended"]["env_steps_per_s_runs"]) == 1
+    text = format_bench(res)
+    assert "uniform random actions" in text and "contended 64 envs" in text
 
-    assert 4096 not in QUICK_SIZES
+    assert 4096 not in QUICK_SIZES and QUICK_EXTRA_ENVS < 4096

@@ -19,6 +19,9 @@ def list_models(root=None) -> list[dict]:
     """One row per model DIR directly under ``root`` (default: the shipped agents): name,
     path, plant, axes, algo, base, cases, timesteps, scale. Unreadable folders are reported
     with an ``error`` key instead of being skipped silently."""
+    if root is not None and not Path(root).is_dir():
+        what = "not a directory" if Path(root).exists() else "no such directory"
+        raise ValueError(f"--dir: {root}: {what}")
     root = Path(root) if root is not None else MODELS_DIR
     if not root.is_dir():
         return []

@@ -39,7 +39,7 @@ import numpy as np
 
 from contour_env import ENV_ID
 from contour_env.evaluation import evaluate
-from contour_env.io import atomic_save, atomic_write_json
+from contour_env.io import atomic_save, atomic_write_json, check_output_dir
 
 from ..registry import make_controller
 from ..residual import MODEL_FORMAT, ResidualAgent
@@ -161,6 +161,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     cfg = config
+    check_output_dir(out_dir)  # a folder under a file, no permission: say so before training
     out = Path(out_dir)
     ckpt_root = out / "checkpoints"
     ckpt = None
@@ -252,6 +253,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             self.bar = None
             self.next_eval = (curve[-1]["timesteps"] if curve else 0) + cfg.eval_every()
             self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
+            self.ckpt_due = False
 
         def _on_training_start(self):
             if progress:
@@ -275,14 +277,29 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 self._evaluate()
                 self.next_eval += cfg.eval_every()
             if self.num_timesteps >= self.next_ckpt:
-                write_checkpoint(
-                    ckpt_root,
-                    self.num_timesteps,
-                    lambda d: write_files(d, True),
-                    cfg.keep_checkpoints,
-                )
-                self.next_ckpt += cfg.checkpoint_every()
+                if cfg.algo == "ppo":
+                    self._checkpoint()
+                else:
+                    # sb3's off-policy loop calls on_step before it stores the step's
+                    # transition: a checkpoint written now would lack it (one transition lost
+                    # per resume). Written at the end of the rollout, after the store.
+                    self.ckpt_due = True
             return True
+
+        def _on_rollout_end(self) -> None:
+            if self.ckpt_due:
+                self._checkpoint()
+
+        def _checkpoint(self) -> None:
+            write_checkpoint(
+                ckpt_root,
+                self.num_timesteps,
+                lambda d: write_files(d, True),
+                cfg.keep_checkpoints,
+            )
+            self.ckpt_due = False
+            while self.next_ckpt <= self.num_timesteps:
+                self.next_ckpt += cfg.checkpoint_every()
 
         def _on_training_end(self):
             if self.bar is not None:

@@ -29,7 +29,8 @@ class ContouringEnv(gym.Env):
     ``Box(-1, 1, (n,), float32)``: the per-axis actuator command as a fraction of the axis
     force limit (``plant.params.force_limit_N``; for ``jee-triaxial`` the velocity-command
     limit). Values outside [-1, 1] are clipped. With the plant's computation delay the command
-    is applied one servo period later. A NaN or infinite action raises ``ValueError``.
+    is applied one servo period later. A NaN or infinite action, a complex, boolean or
+    non-numeric one, or one of the wrong shape raises ``ValueError``.
 
     ## Observation Space
 
@@ -189,7 +190,11 @@ class ContouringEnv(gym.Env):
         return self.core.obs[0].copy(), self.core.info(0)
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64)
+        a = np.asarray(action)
+        if a.dtype.kind not in "fiu":
+            # complex (its imaginary part would be dropped), bool, text, objects: no command
+            raise ValueError(f"action: expected real numbers, got dtype {a.dtype} ({action!r})")
+        a = a.astype(np.float64, copy=False)
         if a.shape != (self.core.dim,):
             a = a.reshape(-1)
             if a.shape != (self.core.dim,):

@@ -7,16 +7,147 @@ writes; the Gymnasium classes are thin layers over it.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..cases import Setup, build_setup, get_case
 from ..metrics import FOLLOW_LIMIT_M
-from ..plants import pack_params
+from ..plants import PlantParams, pack_params
+from ..plants.discretize import state_size
+from ..plants.params import check_param_ranges
 from . import kernel as K
 
 PARALLEL_MIN_ENVS = 256
+
+
+class StepThreads:
+    """How many threads step a batch: the env option ``num_threads``.
+
+    ``None`` or ``"auto"`` (the default): batches below :data:`PARALLEL_MIN_ENVS` envs step on
+    the calling thread; larger ones time their own steps and keep the fastest thread count. A
+    probe tries each candidate (1, 2, 4, … up to numba's thread count) for a few steps and keeps
+    the winner for :attr:`HOLD_S` seconds (doubling, up to :attr:`MAX_HOLD_S`, while probes
+    keep the same winner), then probes again, and at once if the steps grow
+    :attr:`SLOWDOWN`× slower than the probe measured (another process, or torch's threads
+    in this process, took the cores); a candidate far slower than one already probed is
+    dropped after one or two steps. So a busy machine gets fewer threads, down to the serial
+    driver, instead of a thread team that waits at every step for a member whose core is
+    taken. An integer n ≥ 1: always n threads (1: the serial driver; capped at numba's thread
+    count). The results are bit-identical for any count: each env is stepped by the same
+    arithmetic whichever thread runs it.
+    """
+
+    PROBE_CALLS = 3  # timed steps per candidate and probe (after one untimed step)
+    HOLD_S = 1.0  # the first hold after a probe; doubled while probes keep the same winner
+    MAX_HOLD_S = 16.0
+    SLOWDOWN = 2.0
+
+    def __init__(self, num_threads, n_envs: int):
+        if num_threads is None or num_threads == "auto":
+            fixed = None
+        elif (
+            isinstance(num_threads, (int, np.integer))
+            and not isinstance(num_threads, bool)
+            and num_threads >= 1
+        ):
+            fixed = int(num_threads)
+        else:
+            raise ValueError(
+                f"num_threads: must be an integer >= 1, None or 'auto', got {num_threads!r}"
+            )
+        self.requested = "auto" if fixed is None else fixed
+        top = max(1, min(int(numba.config.NUMBA_NUM_THREADS), int(n_envs)))
+        if fixed is not None:
+            self.candidates = (min(fixed, top),)
+        elif n_envs < PARALLEL_MIN_ENVS:
+            self.candidates = (1,)
+        else:
+            c = [1]
+            while c[-1] * 2 < top:
+                c.append(c[-1] * 2)
+            if top > 1:
+                c.append(top)
+            self.candidates = tuple(c)
+        self.current = self.candidates[0]
+        self._probe = None  # while probing: [candidate index, calls, times per candidate]
+        self._best_s = math.inf  # the winner's probe time per step
+        self._ema_s = 0.0
+        self._hold_s = self.HOLD_S
+        self._until = 0.0  # perf_counter time of the next probe
+        self.n_probes = 0
+        if len(self.candidates) > 1:
+            self._start_probe()
+
+    def _start_probe(self):
+        self._probe = [0, 0, [[] for _ in self.candidates]]
+        self._winner = self.current
+        self.current = self.candidates[0]
+        self.n_probes += 1
+
+    def _record(self, dt: float, now: float) -> None:
+        probe = self._probe
+        if probe is None:
+            self._ema_s += 0.125 * (dt - self._ema_s)
+            if now >= self._until:
+                self._start_probe()
+            elif self.current > self.candidates[0] and self._ema_s > self.SLOWDOWN * self._best_s:
+                # the thread team got slower (the machine got busier): probe now, hold briefly.
+                # Not with the fewest threads: fewer are not to be had, and a busier machine
+                # does not make more threads pay
+                self._hold_s = self.HOLD_S
+                self._start_probe()
+            return
+        i, calls, times = probe
+        if calls > 0:  # the first step after a switch is not timed (the threads wake)
+            times[i].append(dt)
+        calls += 1
+        done = [sorted(t)[len(t) // 2] for t in times[:i]]
+        # a candidate far slower than one already probed (even in its untimed first step, by
+        # twice the margin) gets no more steps
+        if (
+            calls > self.PROBE_CALLS
+            or (done and calls > 1 and dt > self.SLOWDOWN * min(done))
+            or (done and calls == 1 and dt > 2 * self.SLOWDOWN * min(done))
+        ):
+            if calls == 1:
+                times[i].append(dt)
+            i, calls = i + 1, 0
+        if i < len(self.candidates):
+            probe[0], probe[1] = i, calls
+            self.current = self.candidates[i]
+            return
+        med = [sorted(t)[len(t) // 2] for t in times]
+        best = min(range(len(med)), key=med.__getitem__)
+        self.current = self.candidates[best]
+        if self.current == self._winner:
+            self._hold_s = min(2.0 * self._hold_s, self.MAX_HOLD_S)
+        else:
+            self._hold_s = self.HOLD_S
+        self._best_s = self._ema_s = med[best]
+        self._probe = None
+        self._until = now + self._hold_s
+
+    def __call__(self, args: tuple):
+        """Step with ``args`` (the arguments of :func:`kernel.env_step`)."""
+        n = self.current
+        t0 = time.perf_counter()
+        if n == 1:
+            result = K.env_step(*args)
+        else:
+            prev = numba.get_num_threads()
+            numba.set_num_threads(n)
+            try:
+                result = K.env_step_parallel(n, *args)
+            finally:
+                numba.set_num_threads(prev)
+        if len(self.candidates) > 1:
+            now = time.perf_counter()
+            self._record(now - t0, now)
+        return result
+
 
 TERMINATION_REASONS = {
     K.STATUS_CONTOUR_LIMIT: "contour_error_limit",
@@ -98,6 +229,47 @@ class EnvConfig:
         ) / self.contour_error_scale_m + self.w_effort
 
 
+def _checked_plant_params(plant_params, plant, n_envs: int) -> list:
+    """``plant_params`` as a list of n_envs PlantParams that fit the case's plant (axes, servo
+    period, state layout, delay, substeps: the kernel runs them with the case's reference and
+    settings) and lie in the documented ranges (params.PARAM_RANGES); ValueError otherwise."""
+    if isinstance(plant_params, (PlantParams, str, bytes)) or not hasattr(
+        plant_params, "__len__"
+    ):
+        raise ValueError(
+            f"plant_params: a list of one PlantParams per env ({n_envs}), got "
+            f"{type(plant_params).__name__}"
+        )
+    plant_params = list(plant_params)
+    if len(plant_params) != n_envs:
+        raise ValueError(
+            f"plant_params: one PlantParams per env ({n_envs}), got {len(plant_params)}"
+        )
+    base = plant.params
+    want = (base.n_axes, base.servo_period_s, state_size(base))
+    for b, p in enumerate(plant_params):
+        label = f"plant_params[{b}]"
+        if not isinstance(p, PlantParams):
+            raise ValueError(f"{label}: expected a PlantParams, got {type(p).__name__}")
+        if (p.n_axes, p.servo_period_s, state_size(p)) != want:
+            raise ValueError(
+                f"{label}: the case's plant {base.name!r} has {base.n_axes} axes "
+                f"{list(base.axis_names)}, servo period {base.servo_period_s:g} s and "
+                f"{want[2]} states per axis; got {p.name!r} with {p.n_axes} axes "
+                f"{list(p.axis_names)}, servo period {p.servo_period_s:g} s and "
+                f"{state_size(p)} states per axis (vary the case's own parameters, e.g. "
+                f"env.unwrapped.plant.params.replace(...))"
+            )
+        for key in ("computation_delay", "friction_substeps"):
+            if getattr(p, key) != getattr(base, key):
+                raise ValueError(
+                    f"{label}: {key} must be the case plant's ({getattr(base, key)!r}), got "
+                    f"{getattr(p, key)!r}"
+                )
+        check_param_ranges(p, label)
+    return plant_params
+
+
 class EnvCore:
     """A batch of ``n_envs`` contouring envs on one setup (case, plant, path, reference)."""
 
@@ -112,16 +284,19 @@ class EnvCore:
         self.dim = plant.n_axes
         self.T = plant.servo_period_s
         self.n_steps = ref.n_steps
+        # custom plants (a mapping is checked when read, a PlantParams here); named plants lie
+        # inside the ranges
+        check_param_ranges(plant.params, "plant")
         if plant_params is None:
             self.packed = plant.packed_batch(self.n_envs)
         else:
             # one true parameter set per env (robustness studies); controllers keep the nominal
-            if len(plant_params) != self.n_envs:
-                raise ValueError(
-                    f"plant_params: one PlantParams per env ({self.n_envs}), got "
-                    f"{len(plant_params)}"
-                )
-            self.packed = pack_params(list(plant_params))
+            self.packed = pack_params(_checked_plant_params(plant_params, plant, self.n_envs))
+        if not math.isfinite(config.guard_penalty * ref.n_steps):
+            raise ValueError(
+                f"w_contour, w_lag, w_effort, contour_error_scale_m: the guard penalty P = "
+                f"{config.guard_penalty:g} times the {ref.n_steps} steps must be finite"
+            )
         self.force_limit = plant.params.force_limit_N.copy()
         # reference tables, in the kernel's layout
         self.ref_pav = np.ascontiguousarray(
@@ -217,8 +392,8 @@ class EnvCore:
             np.empty((0, A), dtype=bool),
             np.empty(0, dtype=np.int64),
         )
-        # threads pay off only for large batches; results are identical either way
-        self._step_kernel = K.env_step_parallel if B >= PARALLEL_MIN_ENVS else K.env_step
+        # the step's thread policy (see StepThreads; results are identical either way)
+        self.threads = StepThreads(None, B)
 
     # --- episode control -------------------------------------------------------------------
     def reset_env(self, b: int, noise_seed: int) -> None:
@@ -373,35 +548,37 @@ class EnvCore:
             )
         else:
             outputs = (self.obs, self.reward, self.terminated, self.truncated)
-        bad, n_terminated, n_ended = self._step_kernel(
-            self.cfg,
-            self.icfg,
-            self.obs_tab,
-            self.z,
-            self.ax,
-            self.k,
-            self.eps,
-            self.est,
-            self.status,
-            self.seed,
-            self.ref_pav,
-            self.frame,
-            self.seg_type,
-            self.seg_data,
-            self.seg_bounds,
-            p.mat_T,
-            p.mat_h,
-            p.cont,
-            p.nl,
-            p.pidx,
-            action,
-            active,
-            outputs[0],
-            outputs[1],
-            outputs[2],
-            outputs[3],
-            self.scratch,
-            info_arrays,
+        bad, n_terminated, n_ended = self.threads(
+            (
+                self.cfg,
+                self.icfg,
+                self.obs_tab,
+                self.z,
+                self.ax,
+                self.k,
+                self.eps,
+                self.est,
+                self.status,
+                self.seed,
+                self.ref_pav,
+                self.frame,
+                self.seg_type,
+                self.seg_data,
+                self.seg_bounds,
+                p.mat_T,
+                p.mat_h,
+                p.cont,
+                p.nl,
+                p.pidx,
+                action,
+                active,
+                outputs[0],
+                outputs[1],
+                outputs[2],
+                outputs[3],
+                self.scratch,
+                info_arrays,
+            )
         )
         if bad >= 0:
             raise ValueError(
@@ -414,6 +591,16 @@ class EnvCore:
         # every status is known to be "running" only if every env was stepped and none ended
         self._status_clear = all_active and n_terminated == 0
         return n_ended
+
+    @property
+    def num_threads(self):
+        """The env option ``num_threads`` ("auto" or a fixed count; see :class:`StepThreads`);
+        assign to change it."""
+        return self.threads.requested
+
+    @num_threads.setter
+    def num_threads(self, value) -> None:
+        self.threads = StepThreads(value, self.n_envs)
 
     def _adopt_outputs(self, outputs, carry) -> None:
         # replace obs, reward, terminated, truncated by ``outputs``, copying the rows ``carry``
@@ -540,8 +727,10 @@ def make_core(
     plant_params=None,
     strict=False,
     rapid_feed_m_s=None,
+    num_threads=None,
     **config,
 ) -> EnvCore:
+    # num_threads: the step's thread policy (None / "auto": adaptive; see StepThreads)
     setup = build_setup(
         case,
         plant,
@@ -559,4 +748,7 @@ def make_core(
         # the case's own env settings (e.g. corner-blend: random disturbance phase, encoder
         # noise) unless given here
         config = {**get_case(case).env_config, **config}
-    return EnvCore(setup, EnvConfig(**config), n_envs=n_envs, plant_params=plant_params)
+    threads = StepThreads(num_threads, n_envs)  # checked before the arrays are built
+    core = EnvCore(setup, EnvConfig(**config), n_envs=n_envs, plant_params=plant_params)
+    core.threads = threads
+    return core

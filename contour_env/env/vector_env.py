@@ -65,7 +65,11 @@ class ContouringVectorEnv(VectorEnv):
 
     def step(self, actions):
         core = self.core
-        a = np.asarray(actions, dtype=np.float64)
+        a = np.asarray(actions)
+        if a.dtype.kind not in "fiu":
+            # complex (its imaginary part would be dropped), bool, text, objects: no command
+            raise ValueError(f"actions: expected real numbers, got dtype {a.dtype}")
+        a = a.astype(np.float64, copy=False)
         if a.shape != (self.num_envs, core.dim):
             raise ValueError(
                 f"actions: expected shape ({self.num_envs}, {core.dim}), got {a.shape}"

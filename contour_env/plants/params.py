@@ -89,6 +89,10 @@ class PlantParams:
         Substeps per servo period used near velocity reversals (stick–slip treatment).
     notes : str
         Where the numbers come from.
+
+    Custom parameters (a mapping, the env's ``plant_params``) must lie in the physically
+    meaningful ranges of :data:`PARAM_RANGES` (mass 1e-6..1e6 kg, force limit 1e-6..1e7 N,
+    servo period 1e-6..0.1 s, ...); see :func:`check_param_ranges`.
     """
 
     name: str
@@ -238,6 +242,44 @@ PER_AXIS_FIELDS = (
     "load_mass_fraction",
 )
 
+# Physically meaningful ranges [low, high] (SI units, inclusive) of custom parameters: from a
+# 0.1 g velocity-command drive to a 1000 t gantry. Every named plant lies inside them. Outside,
+# the dynamics overflow float64 within a step (e.g. force_limit 1e308 N or mass 1e-300 kg), so
+# custom parameters (a mapping, ``plant_params``) are checked against them by
+# :func:`check_param_ranges`.
+PARAM_RANGES = {
+    "mass_kg": (1e-6, 1e6),
+    "viscous_Ns_m": (0.0, 1e7),
+    "coulomb_N": (0.0, 1e6),
+    "static_N": (0.0, 1e6),
+    "stribeck_velocity_m_s": (1e-6, 10.0),
+    "ripple_amplitude_N": (0.0, 1e6),
+    "ripple_period_m": (1e-6, 10.0),
+    "disturbance_amplitude_N": (0.0, 1e6),
+    "disturbance_frequency_hz": (0.0, 1e4),
+    "force_limit_N": (1e-6, 1e7),
+    "encoder_resolution_m": (0.0, 1e-3),
+    "current_loop_time_constant_s": (0.0, 1.0),
+    "structural_stiffness_N_m": (0.0, 1e12),
+    "structural_damping_Ns_m": (0.0, 1e9),
+    "load_mass_fraction": (0.01, 0.99),
+    "servo_period_s": (1e-6, 0.1),
+    "friction_substeps": (1, 1000),
+}
+
+
+def check_param_ranges(params: PlantParams, label: str = "plant") -> PlantParams:
+    """Raise ValueError naming the parameter and its allowed range if a value of ``params`` is
+    outside :data:`PARAM_RANGES`; returns ``params``."""
+    for key, (lo, hi) in PARAM_RANGES.items():
+        arr = np.asarray(getattr(params, key), dtype=np.float64)
+        if np.any(arr < lo) or np.any(arr > hi):
+            raise ValueError(
+                f"{label}: {key} must be in [{lo:g}, {hi:g}] on every axis, got {arr.tolist()}"
+            )
+    return params
+
+
 # Keys accepted by ``params_from_mapping`` (plain names users type) -> field names.
 MAPPING_KEYS = {
     "mass": "mass_kg",
@@ -269,6 +311,8 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
     ``current_loop_time_constant`` (s), ``computation_delay`` (bool), ``structural_stiffness``
     (N/m), ``structural_damping`` (N s/m), ``load_mass_fraction``, ``input_kind``,
     ``friction_substeps``, ``name``. The full field names of :class:`PlantParams` work too.
+    Every value must lie in its range of :data:`PARAM_RANGES` (ValueError naming the
+    parameter and the range otherwise).
     """
     if not isinstance(mapping, Mapping):
         raise ValueError(
@@ -320,4 +364,4 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
     ):
         if key not in kw:
             kw[key] = kw["coulomb_N"] if key == "static_N" else np.full(n, default)
-    return PlantParams(**kw)
+    return check_param_ranges(PlantParams(**kw))

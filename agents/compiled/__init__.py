@@ -1,0 +1,50 @@
+"""Compiled (numba) forms of the classical controllers' per-step laws and the fused episode
+loops that run them with the env kernel (``contour_env.evaluation.run_episode`` takes this
+path for ``pd``, ``ccc``, ``adaptive-ccc`` and ``jee-ccc``; ``compiled=False`` or
+``CONTOUR_ENV_COMPILED=0`` keeps the Python ``act``).
+
+The loops inline the env kernel, whose sources numba's cache does not track: on import, the
+caches of this package are deleted when any of those sources (or the laws) changed, as
+:mod:`contour_env.kernel_cache` does for the env's own."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+from contour_env.kernel_cache import KERNEL_SOURCES, PACKAGE
+
+
+def _refresh_caches() -> None:
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for path in [PACKAGE / rel for rel in KERNEL_SOURCES] + [
+        here / "laws.py",
+        here / "runner.py",
+    ]:
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    digest = h.hexdigest()
+    stamp = here / "__pycache__" / "compiled_sources.sha256"
+    try:
+        if stamp.read_text().strip() == digest:
+            return
+    except OSError:
+        pass
+    for f in list(stamp.parent.glob("*.nbi")) + list(stamp.parent.glob("*.nbc")):
+        try:
+            f.unlink()
+        except OSError:
+            pass
+    try:
+        stamp.parent.mkdir(exist_ok=True)
+        stamp.write_text(digest + "\n")
+    except OSError:
+        pass
+
+
+_refresh_caches()
+
+from .forms import CompiledForm, compiled_form  # noqa: E402
+
+__all__ = ["CompiledForm", "compiled_form"]

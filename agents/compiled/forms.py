@@ -1,0 +1,177 @@
+"""Gains and state of the classical controllers as the arrays of :mod:`agents.compiled.laws`.
+
+:func:`compiled_form` packs a bound controller (exact classes only: a subclass may change the
+law) into a :class:`CompiledForm`; :meth:`CompiledForm.store` writes the state the compiled run
+advanced back into the controller's own attributes, so that after a run the object is in the
+state the Python path would have left it in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import laws as L
+
+
+@dataclass
+class CompiledForm:
+    kind: int
+    fp: np.ndarray  # gains (float64)
+    st: np.ndarray  # state, one row per env (float64, flags 0/1)
+    force_limit: np.ndarray  # the controller's (nominal) force limit, per axis
+    controller: object
+
+    def store(self) -> None:
+        """Write ``st`` back into the controller's attributes."""
+        _STORE[self.kind](self.controller, self.st)
+
+    def _core_args(self, core) -> tuple:
+        p = core.packed
+        return (
+            self.kind, self.fp, self.st, self.force_limit, core.cfg, core.icfg, core.obs_tab,
+            core.z, core.ax, core.k, core.eps, core.est, core.status, core.seed, core.ref_pav,
+            core.frame, core.scal, core.seg_type, core.seg_data, core.seg_bounds, p.mat_T,
+            p.mat_h, p.cont, p.nl, p.pidx, core.action, core.obs, core.reward,
+            core.terminated, core.truncated, core.scratch, core._no_info,
+        )  # fmt: skip
+
+    def run_single(self, core, rec_time, rec_eps, rec_pos, rec_ref, rec_force) -> tuple:
+        """Env 0 of ``core`` to the end of its episode (:func:`runner.run_single`); the state
+        is written back into the controller. Returns (steps recorded, bad action flag)."""
+        from .runner import run_single
+
+        n, bad = run_single(*self._core_args(core), rec_time, rec_eps, rec_pos, rec_ref, rec_force)
+        self.store()
+        return int(n), bool(bad)
+
+    def run_batch(self, core, sq, peak, count, failed, bad, trace, steps) -> None:
+        """Every env of ``core`` to the end of its episode (:func:`runner.run_batch`)."""
+        from .runner import run_batch
+
+        run_batch(*self._core_args(core), sq, peak, count, failed, bad, trace, steps)
+        self.store()
+
+
+def _f(*parts) -> np.ndarray:
+    return np.concatenate([np.atleast_1d(np.asarray(p, dtype=np.float64)) for p in parts])
+
+
+def _pd_fp(c) -> np.ndarray:
+    return _f(c.P, c.D)
+
+
+def _ccc_fp(c) -> np.ndarray:
+    from ..ccc import CORNER_TURN_RAD
+
+    limit = float(np.min(c.force_limit / c.mass)) / max(c.W_i, 1e-300)
+    return _f(c.P, c.D, c.W_p, c.W_i, c.W_d, c.mass, limit, np.cos(CORNER_TURN_RAD))
+
+
+def _ccc_st(c) -> np.ndarray:
+    return np.concatenate(
+        [
+            c._prev,
+            c._integral,
+            c._started[:, None].astype(np.float64),
+            c._tangent,
+            c._corner,
+            c._bisector,
+            c._holding[:, None].astype(np.float64),
+        ],
+        axis=1,
+    )
+
+
+def _ccc_store(c, st) -> None:
+    A = c.n_axes
+    c._prev[:] = st[:, 0:2]
+    c._integral[:] = st[:, 2 : 2 + A]
+    c._started[:] = st[:, 2 + A] != 0.0
+    c._tangent[:] = st[:, 3 + A : 3 + 2 * A]
+    c._corner[:] = st[:, 3 + 2 * A : 3 + 3 * A]
+    c._bisector[:] = st[:, 3 + 3 * A : 3 + 4 * A]
+    c._holding[:] = st[:, 3 + 4 * A] != 0.0
+
+
+def _adaptive_fp(c) -> np.ndarray:
+    return _f(
+        c.k,
+        c.alpha,
+        c.coupling,
+        c.kv_rho,
+        float(np.any(c.kv_rho)),
+        c.n_columns,
+        float(c.friction),
+        float(c.normalize),
+        float(c.velocity_match),
+        float(np.any(c.Gamma)),
+        np.asarray(c.mean_squares, dtype=np.float64),
+        c.Gamma,
+    )
+
+
+def _adaptive_store(c, st) -> None:
+    c.theta_hat[:] = st
+
+
+def _jee_st(c) -> np.ndarray:
+    return np.concatenate([c._sum, c._prev, c._started[:, None].astype(np.float64)], axis=1)
+
+
+def _jee_store(c, st) -> None:
+    A = c.n_axes
+    c._sum[:] = st[:, :A]
+    c._prev[:] = st[:, A : 2 * A]
+    c._started[:] = st[:, 2 * A] != 0.0
+
+
+_STORE = {
+    L.KIND_PD: lambda c, st: None,
+    L.KIND_CCC: _ccc_store,
+    L.KIND_ADAPTIVE_CCC: _adaptive_store,
+    L.KIND_JEE_CCC: _jee_store,
+}
+
+
+_PATCHABLE = ("act", "command", "action", "predict", "reset", "configure")
+
+
+def compiled_form(controller) -> CompiledForm | None:
+    """The compiled form of a bound ``pd``, ``ccc``, ``adaptive-ccc`` or ``jee-ccc`` (exact
+    classes), or None for any other policy."""
+    from ..adaptive_ccc import AdaptiveCCCController
+    from ..ccc import CCCController
+    from ..jee_ccc import JeeCCCController
+    from ..pd import PDController
+
+    cls = type(controller)
+    if getattr(controller, "_core", None) is None:
+        return None
+    # a law patched on the instance (e.g. a traced ``act``) is not the compiled one
+    if any(name in vars(controller) for name in _PATCHABLE):
+        return None
+    B = controller.n_envs
+    if cls is PDController:
+        kind, fp, st = L.KIND_PD, _pd_fp(controller), np.zeros((B, 1))
+    elif cls is CCCController:
+        kind, fp, st = L.KIND_CCC, _ccc_fp(controller), _ccc_st(controller)
+    elif cls is AdaptiveCCCController:
+        kind, fp = L.KIND_ADAPTIVE_CCC, _adaptive_fp(controller)
+        st = np.array(controller.theta_hat, dtype=np.float64)
+    elif cls is JeeCCCController:
+        kind, fp, st = (
+            L.KIND_JEE_CCC,
+            _f(controller.K_P, controller.C_P, controller.C_I, controller.C_D),
+            _jee_st(controller),
+        )
+    else:
+        return None
+    return CompiledForm(
+        kind,
+        np.ascontiguousarray(fp),
+        np.ascontiguousarray(st, dtype=np.float64),
+        np.asarray(controller.force_limit, dtype=np.float64).copy(),
+        controller,
+    )

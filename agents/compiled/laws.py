@@ -1,0 +1,268 @@
+"""The per-step laws of pd, ccc, adaptive-ccc and jee-ccc as numba functions.
+
+Each law reads what the Python ``act`` reads (the servo signals of env ``b`` at reference index
+``kk``: measured position/velocity from the env's ``ax`` rows, the reference position,
+velocity, acceleration, frame, curvature, torsion and feedrate from the reference tables) and
+keeps the controller's state in row ``b`` of a float64 array ``st`` (flags as 0/1). Gains come
+in a float64 vector ``fp`` (layouts: :mod:`agents.compiled.forms`).
+
+The arithmetic is the Python ``act``'s, operation for operation and in numpy's summation
+order (sums of 2–3 terms left to right; ``einsum("bij,bj->bi")`` over 3 terms as
+(p0 + p2) + p1, numpy's two-lane pairing), so a compiled run is bit-identical to the Python
+one. The Python ``act`` stays the readable reference; change both together.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from contour_env.env.kernel import AX_MEAS, AX_VEL
+
+KIND_PD, KIND_CCC, KIND_ADAPTIVE_CCC, KIND_JEE_CCC = 1, 2, 3, 4
+
+# --- CCC: fp = [P (A), D (A), W_p, W_i, W_d, mass (A), limit, cos(CORNER_TURN_RAD)];
+# st = [prev (2), J (A), started, tangent (A), corner (A), bisector (A), holding]
+# --- adaptive-ccc: fp = [k, alpha, coupling, kv_rho (A each), any_kv, ncol, friction,
+# normalize, velocity_match, any_gamma, mean_squares (ncol), Gamma (ncol·A)]; st = θ̂ (ncol·A)
+# --- jee-ccc: fp = [K_P (A), C_P, C_I, C_D]; st = [sum (A), prev (A), started]
+
+
+@njit(cache=True, inline="always")
+def _pd(A, b, kk, T, ax, ref_pav, fp, u):
+    for i in range(A):
+        e = ref_pav[kk, 0, i] - ax[AX_MEAS, b, i]
+        de = ref_pav[kk, 1, i] - ax[AX_VEL, b, i]
+        u[i] = fp[i] * e + fp[A + i] * de
+
+
+@njit(cache=True, inline="always")
+def _clip(x, lo, hi):
+    # np.clip: NaN passes through
+    if x < lo:
+        return lo
+    if x > hi:
+        return hi
+    return x
+
+
+@njit(cache=True, inline="always")
+def _ccc(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E):
+    _pd(A, b, kk, T, ax, ref_pav, fp, u)
+    W_p = fp[2 * A]
+    W_i = fp[2 * A + 1]
+    W_d = fp[2 * A + 2]
+    om = 2 * A + 3  # mass
+    limit = fp[3 * A + 3]
+    cos_thr = fp[3 * A + 4]
+    s_prev = 0
+    s_J = 2
+    s_started = 2 + A
+    s_tan = 3 + A
+    s_corner = 3 + 2 * A
+    s_bis = 3 + 3 * A
+    s_hold = 3 + 4 * A
+    for i in range(A):
+        E[i] = ref_pav[kk, 0, i] - ax[AX_MEAS, b, i]
+    # contour_error_estimate
+    sn = frame[kk, 0, 1] * E[0]
+    ee = E[0] * E[0]
+    for i in range(1, A):
+        sn += frame[kk, i, 1] * E[i]
+        ee += E[i] * E[i]
+    eps_n = -(sn + 0.5 * scal[kk, 2] * ee)
+    eps_b = 0.0
+    if A == 3:
+        sb = frame[kk, 0, 2] * E[0]
+        for i in range(1, A):
+            sb += frame[kk, i, 2] * E[i]
+        eps_b = -sb
+    started = st[b, s_started] != 0.0
+    # _corner_hold
+    ct = st[b, s_tan] * frame[kk, 0, 0]
+    for i in range(1, A):
+        ct += st[b, s_tan + i] * frame[kk, i, 0]
+    jump = started and (ct < cos_thr) and (ct > -0.9)
+    if jump:
+        for i in range(A):
+            st[b, s_corner + i] = ref_pav[kk, 0, i]
+            st[b, s_bis + i] = st[b, s_tan + i] + frame[kk, i, 0]
+        st[b, s_hold] = 1.0
+    pp = st[b, s_bis] * (ax[AX_MEAS, b, 0] - st[b, s_corner])
+    for i in range(1, A):
+        pp += st[b, s_bis + i] * (ax[AX_MEAS, b, i] - st[b, s_corner + i])
+    if pp >= 0.0:
+        st[b, s_hold] = 0.0
+    for i in range(A):
+        st[b, s_tan + i] = frame[kk, i, 0]
+    if st[b, s_hold] != 0.0:
+        for i in range(A):
+            st[b, s_J + i] = 0.0
+        eps_n = 0.0
+        eps_b = 0.0
+    # the integral's components on the current normal (and binormal)
+    cn = st[b, s_J] * frame[kk, 0, 1]
+    for i in range(1, A):
+        cn += st[b, s_J + i] * frame[kk, i, 1]
+    cn = _clip(cn + eps_n * T, -limit, limit)
+    cb = 0.0
+    if A == 3:
+        cb = st[b, s_J] * frame[kk, 0, 2]
+        for i in range(1, A):
+            cb += st[b, s_J + i] * frame[kk, i, 2]
+        cb = _clip(cb + eps_b * T, -limit, limit)
+    for i in range(A):
+        st[b, s_J + i] = 0.0
+    n_dir = 2 if A == 3 else 1
+    for slot in range(n_dir):
+        col = 1 + slot
+        eps = eps_n if slot == 0 else eps_b
+        integ = cn if slot == 0 else cb
+        de = (eps - st[b, s_prev + slot]) / T if started else 0.0
+        c = W_p * eps + W_i * integ + W_d * de
+        for i in range(A):
+            d = frame[kk, i, col]
+            u[i] = u[i] - fp[om + i] * c * d
+            st[b, s_J + i] += integ * d
+        st[b, s_prev + slot] = eps
+    st[b, s_started] = 1.0
+
+
+@njit(cache=True, inline="always")
+def _sum3(p0, p1, p2, A):
+    # numpy's einsum("bij,bj->bi") over A terms: two lanes, (p0 + p2) + p1 for three
+    if A == 3:
+        return (p0 + p2) + p1
+    return p0 + p1
+
+
+@njit(cache=True, inline="always")
+def _sign(x):
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    if x == 0.0:
+        return 0.0
+    return x  # NaN
+
+
+@njit(cache=True, inline="always")
+def _adaptive(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E, W):
+    # W: work space, at least 3 A + 2 A² + 3 A
+    o_k, o_alpha, o_c, o_kv = 0, A, 2 * A, 3 * A
+    any_kv = fp[4 * A] != 0.0
+    ncol = int(fp[4 * A + 1])
+    friction = fp[4 * A + 2] != 0.0
+    normalize = fp[4 * A + 3] != 0.0
+    vmatch = fp[4 * A + 4] != 0.0
+    any_gamma = fp[4 * A + 5] != 0.0
+    o_ms = 4 * A + 6
+    o_G = o_ms + ncol
+    Ed = W[0:A]
+    FR = W[A : A + A * A]  # FRFt, row-major (i, l)
+    C = W[A + A * A : A + 2 * A * A]
+    phi = W[A + 2 * A * A : A + 2 * A * A + 3 * A]  # (ncol, A)
+    kap = scal[kk, 2]
+    tau = scal[kk, 3]
+    v = scal[kk, 0]
+    half_T = 0.5 * T
+    for i in range(A):
+        E[i] = ref_pav[kk, 0, i] - ax[AX_MEAS, b, i]
+        rv = ref_pav[kk, 1, i]
+        if vmatch:
+            rv = rv - half_T * ref_pav[kk, 2, i]
+        Ed[i] = rv - ax[AX_VEL, b, i]
+    # F R Fᵀ: einsum("bij,bjk,blk->bil"), j outer, k inner, ((F_ij R_jk) F_lk) from 0; the
+    # zero entries of R add ±0 to a sum that starts at +0 and are left out
+    for i in range(A):
+        for col in range(A):
+            acc = 0.0
+            acc += (frame[kk, i, 0] * kap) * frame[kk, col, 1]
+            acc += (frame[kk, i, 1] * -kap) * frame[kk, col, 0]
+            if A == 3:
+                acc += (frame[kk, i, 1] * tau) * frame[kk, col, 2]
+                acc += (frame[kk, i, 2] * -tau) * frame[kk, col, 1]
+            FR[i * A + col] = acc
+    sk = _sign(kap)
+    for i in range(A):
+        cv = fp[o_c + i] * v
+        for col in range(A):
+            cc = cv * FR[i * A + col]
+            if any_kv:
+                jj = 0.0
+                if i == 0 and col == 1:
+                    jj = 1.0
+                elif i == 1 and col == 0:
+                    jj = -1.0
+                cc = cc + sk * (fp[o_kv + i] * jj)
+            C[i * A + col] = cc
+    for i in range(A):
+        phi[i] = ref_pav[kk, 2, i]
+        phi[A + i] = ref_pav[kk, 1, i]
+        if friction:
+            phi[2 * A + i] = _sign(ref_pav[kk, 1, i])
+    for i in range(A):
+        p2 = 0.0
+        q2 = 0.0
+        if A == 3:
+            p2 = FR[i * A + 2] * E[2]
+            q2 = C[i * A + 2] * E[2]
+        fre = _sum3(FR[i * A] * E[0], FR[i * A + 1] * E[1], p2, A)
+        ce = _sum3(C[i * A] * E[0], C[i * A + 1] * E[1], q2, A)
+        pe = Ed[i] + fp[o_alpha + i] * E[i]
+        Fr = pe + v * fre
+        ff = 0.0
+        for j in range(ncol):
+            ff += phi[j * A + i] * st[b, j * A + i]
+        u[i] = fp[o_k + i] * pe + ce + E[i] + ff
+        if any_gamma:
+            step = T * Fr
+            if normalize:
+                psi2 = 0.0
+                for j in range(ncol):
+                    ph = phi[j * A + i]
+                    psi2 += ph * ph / fp[o_ms + j]
+                x = psi2 / ncol
+                if not x > 1.0 and x == x:
+                    x = 1.0
+                step = step / x
+            for j in range(ncol):
+                th = st[b, j * A + i] + fp[o_G + j * A + i] * phi[j * A + i] * step
+                if th < 0.0:
+                    th = 0.0
+                st[b, j * A + i] = th
+
+
+@njit(cache=True, inline="always")
+def _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
+    C_P = fp[A]
+    C_I = fp[A + 1]
+    C_D = fp[A + 2]
+    for i in range(A):
+        E[i] = ref_pav[kk, 0, i] - ax[AX_MEAS, b, i]
+    s = frame[kk, 0, 0] * E[0]
+    for i in range(1, A):
+        s += frame[kk, i, 0] * E[i]
+    started = st[b, 2 * A] != 0.0
+    for i in range(A):
+        eps = E[i] - s * frame[kk, i, 0]
+        st[b, i] += eps * T
+        d_eps = (eps - st[b, A + i]) / T if started else 0.0
+        st[b, A + i] = eps
+        u[i] = fp[i] * E[i] + C_P * eps + C_I * st[b, i] + C_D * d_eps
+    st[b, 2 * A] = 1.0
+
+
+@njit(cache=True, inline="always")
+def law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work):
+    """The command u (A,) of env b (plant units) from its signals at reference index kk;
+    advances the controller state st[b]. ``work``: scratch, ≥ 4 A + 2 A² floats."""
+    E = work[0:A]
+    if kind == KIND_PD:
+        _pd(A, b, kk, T, ax, ref_pav, fp, u)
+    elif kind == KIND_CCC:
+        _ccc(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E)
+    elif kind == KIND_ADAPTIVE_CCC:
+        _adaptive(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E, work[A:])
+    else:
+        _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E)

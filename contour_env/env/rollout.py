@@ -1,0 +1,150 @@
+"""Compiled episodes: a controller's law and the env kernel in one numba loop.
+
+A policy that offers ``compiled_form()`` (the classical controllers ``pd``, ``ccc``,
+``adaptive-ccc``, ``jee-ccc``: :mod:`agents.compiled`) is run by
+:func:`contour_env.evaluation.run_episode` without a Python call per servo period: the loop
+computes the command from the env's servo signals, steps the env with the kernel's per-env
+step (:func:`contour_env.env.kernel._step_one`) and records what ``run_episode`` records. The
+record is bit-identical to the Python path's (same arithmetic, same counter-based noise keyed
+by the episode seed); the env and the controller are left in the state the Python path leaves
+them in.
+
+This module is the env side (which envs qualify, the record); the loop itself is compiled next
+to the laws (:mod:`agents.compiled.runner`), since contour_env does not import agents.
+
+``CONTOUR_ENV_COMPILED=0`` in the environment, or ``run_episode(..., compiled=False)``, keeps
+the Python path.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..metrics import EpisodeRecord
+
+ENV_VAR = "CONTOUR_ENV_COMPILED"
+# wrappers that gym.make adds and that change nothing a run records
+_TRANSPARENT_WRAPPERS = ("OrderEnforcing", "PassiveEnvChecker")
+
+
+def compiled_allowed(compiled: bool | None = None) -> bool:
+    """Whether the compiled path may be taken: ``compiled`` if given, else not disabled by
+    ``CONTOUR_ENV_COMPILED=0``."""
+    if compiled is not None:
+        return bool(compiled)
+    return os.environ.get(ENV_VAR, "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+def plain_env(env):
+    """The ContouringEnv under ``env`` if nothing between changes a step (only gym.make's
+    checker wrappers, no ``step``/``reset`` patched on an instance, e.g. to record rewards)
+    and it does not render; else None."""
+    from .contouring_env import ContouringEnv
+
+    e = env
+    while type(e) is not ContouringEnv:
+        if type(e).__name__ not in _TRANSPARENT_WRAPPERS or not hasattr(e, "env"):
+            return None
+        if "step" in vars(e) or "reset" in vars(e):  # a step patched on the instance
+            return None
+        e = e.env
+    if "step" in vars(e) or "reset" in vars(e):
+        return None
+    if e.render_mode is not None:
+        return None
+    return e
+
+
+def plain_vector_env(venv):
+    """The ContouringVectorEnv ``venv`` if it is one (no wrapper); else None."""
+    from .vector_env import ContouringVectorEnv
+
+    return venv if type(venv) is ContouringVectorEnv else None
+
+
+def compiled_form_of(policy):
+    """The policy's compiled form (None: it has none, e.g. a learning controller or an
+    agent)."""
+    make = getattr(policy, "compiled_form", None)
+    return make() if callable(make) else None
+
+
+def episode_record(core, rec: dict, n: int, reason) -> EpisodeRecord:
+    """The :class:`EpisodeRecord` of the first ``n`` recorded steps of env 0 of ``core``."""
+    sl = slice(0, n)
+    force = rec["force"][sl]
+    limit = core.setup.plant.params.force_limit_N
+    # rapid (G00) steps: the flag of the reference index each recorded step ended at
+    step_is_rapid = getattr(core.setup, "step_is_rapid", None)
+    rapid = None
+    if step_is_rapid is not None:
+        rapid = step_is_rapid[np.minimum(np.arange(1, n + 1), core.n_steps - 1)].copy()
+    return EpisodeRecord(
+        time=rec["time"][sl],
+        contour_error=rec["contour_error"][sl],
+        tracking_error=rec["tracking_error"][sl],
+        force=force,
+        saturated=np.abs(force) >= limit * (1 - 1e-12),
+        position=rec["position"][sl],
+        reference=rec["reference"][sl],
+        force_limit=limit.copy(),
+        termination_reason=reason,
+        n_steps_planned=core.n_steps - 1,
+        encoder_resolution_m=np.array(core.setup.plant.params.encoder_resolution_m, dtype=float),
+        rapid=rapid,
+    )
+
+
+def empty_record(core) -> dict:
+    n_max = core.n_steps - 1
+    d = core.dim
+    return {
+        "time": np.empty(n_max),
+        "contour_error": np.empty(n_max),
+        "tracking_error": np.empty((n_max, d)),
+        "force": np.empty((n_max, d)),
+        "position": np.empty((n_max, d)),
+        "reference": np.empty((n_max, d)),
+    }
+
+
+def _bad_action(core) -> ValueError:
+    return ValueError(
+        f"action: must be finite, got {core.action[0].tolist()} (env 0); the action is "
+        "the per-axis command in [-1, 1] of the force limit"
+    )
+
+
+def try_compiled_episode(env, policy, seed: int) -> EpisodeRecord | None:
+    """Run the episode of ``run_episode(env, policy, seed=seed)`` compiled, or return None
+    (nothing done) when ``env`` or ``policy`` does not qualify."""
+    if policy is None or not callable(getattr(policy, "compiled_form", None)):
+        return None
+    base = plain_env(env)
+    if base is None:
+        return None
+    if getattr(policy, "_env", None) is None:
+        policy.bind(env)
+    if getattr(policy, "_core", None) is not base.core or policy.n_envs != 1:
+        return None
+    env.reset(seed=seed)
+    # as the first predict does (episode_start)
+    policy.reset(np.ones(1, dtype=bool))
+    form = compiled_form_of(policy)
+    if form is None:
+        return None
+    core = base.core
+    rec = empty_record(core)
+    n, bad = form.run_single(
+        core, rec["time"], rec["contour_error"], rec["position"], rec["reference"], rec["force"]
+    )
+    if bad:
+        raise _bad_action(core)
+    np.subtract(rec["reference"][:n], rec["position"][:n], out=rec["tracking_error"][:n])
+    status = int(core.status[0])
+    from .core import TERMINATION_REASONS
+
+    reason = TERMINATION_REASONS.get(status) if n > 0 else None
+    return episode_record(core, rec, n, reason)

@@ -1,0 +1,119 @@
+"""The step's thread policy (env option ``num_threads``): results independent of the thread
+count, the option checked, the adaptive choice, and the benchmark's busy process cleaned up."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import contour_env
+from contour_env.env.core import PARALLEL_MIN_ENVS, StepThreads
+
+
+def _rollout(num_threads, n_envs=512, steps=60):
+    venv = gym.make_vec(
+        contour_env.ENV_ID,
+        num_envs=n_envs,
+        vectorization_mode="vector_entry_point",
+        num_threads=num_threads,
+    )
+    assert venv.unwrapped.core.num_threads == num_threads
+    rng = np.random.default_rng(3)
+    obs, _ = venv.reset(seed=7)
+    out = [obs.copy()]
+    for t in range(steps):
+        # large random actions for half the run: guard terminations and autoresets
+        amp = 1.0 if t < steps // 2 else 0.01
+        a = rng.uniform(-amp, amp, (n_envs, venv.single_action_space.shape[0]))
+        obs, reward, term, trunc, info = venv.step(a.astype(np.float32))
+        out += [obs.copy(), reward.copy(), term.copy(), trunc.copy()]
+        out += [np.asarray(v).copy() for _, v in sorted(info.items()) if not _.startswith("_")]
+    venv.close()
+    return out
+
+
+def test_results_are_bit_identical_for_any_thread_count():
+    one = _rollout(1)
+    for other in (_rollout(2), _rollout("auto")):
+        assert len(one) == len(other)
+        for x, y in zip(one, other, strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "two", [2]])
+def test_num_threads_must_be_a_positive_integer_or_auto(bad):
+    with pytest.raises(ValueError, match="num_threads"):
+        gym.make_vec(
+            contour_env.ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", num_threads=bad
+        )
+
+
+def test_default_is_auto_and_small_batches_step_serially():
+    venv = gym.make_vec(contour_env.ENV_ID, num_envs=4, vectorization_mode="vector_entry_point")
+    core = venv.unwrapped.core
+    assert core.num_threads == "auto" and core.threads.candidates == (1,)
+    assert StepThreads(None, PARALLEL_MIN_ENVS - 1).candidates == (1,)
+    assert StepThreads(3, 10).current in (1, 2, 3)  # capped at numba's thread count
+    core.num_threads = 1
+    assert core.num_threads == 1 and core.threads.candidates == (1,)
+    env = gym.make(contour_env.ENV_ID, num_threads=1)
+    assert env.unwrapped.core.num_threads == 1
+
+
+def _policy(candidates):
+    pol = StepThreads("auto", 4096)
+    pol.candidates = candidates
+    pol._start_probe()
+    return pol
+
+
+def _feed(pol, cost, now, n, counts=None):
+    # n steps, each taking cost[threads] seconds; returns the time after them
+    for _ in range(n):
+        dt = cost[pol.current]
+        if counts is not None:
+            counts[pol.current] = counts.get(pol.current, 0) + 1
+        now += dt
+        pol._record(dt, now)
+    return now
+
+
+def test_auto_keeps_the_fastest_count_and_moves_when_the_machine_changes():
+    pol = _policy((1, 2, 4))
+    quiet = {1: 4e-3, 2: 2e-3, 4: 1.2e-3}
+    now = _feed(pol, quiet, 0.0, 20)
+    assert pol._probe is None and pol.current == 4
+    # another process takes cores: 4 threads collapse; the slowdown triggers a probe at once
+    busy = {1: 5e-3, 2: 3e-3, 4: 40e-3}
+    probes = pol.n_probes
+    counts = {}
+    now = _feed(pol, busy, now, 40, counts)
+    assert pol.n_probes == probes + 1 and pol.current == 2
+    # the collapsed count: the step that showed it, then one in the probe (untimed, but far
+    # slower than 2 threads)
+    assert counts[4] == 2
+    # quiet again: the next periodic probe goes back to 4 threads
+    now = _feed(pol, quiet, now, int(pol.MAX_HOLD_S / 2e-3) + 50)
+    assert pol.current == 4
+    # a steady machine: the hold between probes grows to MAX_HOLD_S
+    _feed(pol, quiet, now, int(4 * pol.MAX_HOLD_S / 1.2e-3))
+    assert pol._hold_s == pol.MAX_HOLD_S
+
+
+def test_bench_kills_its_busy_process_even_on_interrupt(monkeypatch):
+    from contour_env import bench
+
+    started = []
+    real_start = bench.start_busy_process
+
+    def start():
+        started.append(real_start())
+        return started[-1]
+
+    def interrupted(_s):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bench, "start_busy_process", start)
+    monkeypatch.setattr(bench.time, "sleep", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        bench.run_bench(quick=True, sizes=(), extra_envs=64, controllers=False)
+    assert len(started) == 1 and started[0].poll() is not None
