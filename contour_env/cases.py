@@ -86,6 +86,12 @@ def _per_axis(values) -> str:
     return "/".join(_num(float(v)) for v in values)
 
 
+def _planner_kwargs(program) -> dict:
+    """The feed planner's inputs from a G-code program: its G61/G64 tolerance (m) at the end of
+    each segment and its G04 dwells (s) after each (``FeedProfile.build`` keywords)."""
+    return dict(segment_blend_m=program.segment_blend_m, segment_dwell_s=program.segment_dwell_s)
+
+
 def case_facts(spec: CaseSpec) -> dict:
     """The numbers a case's notes quote, computed from its setup (SI values as formatted text).
 
@@ -115,8 +121,7 @@ def case_facts(spec: CaseSpec) -> dict:
             max_accel_m_s2=spec.max_accel_m_s2,
             max_jerk_m_s3=spec.max_jerk_m_s3,
             segment_feeds=program.segment_feeds_m_s,
-            segment_blend_m=program.segment_blend_m,
-            segment_dwell_s=program.segment_dwell_s,
+            **_planner_kwargs(program),
         )
         if abs(program.feedrate_m_s - spec.feedrate_m_s) > 1e-12:
             raise ValueError(
@@ -619,9 +624,7 @@ def _make_setup(
     planner = {}
     if program is not None:
         # the program's G61/G64 modes and G04 dwells drive the look-ahead feed planner
-        planner = dict(
-            segment_blend_m=program.segment_blend_m, segment_dwell_s=program.segment_dwell_s
-        )
+        planner = _planner_kwargs(program)
     profile = FeedProfile.build(
         geometry,
         float(feedrate),
