@@ -121,6 +121,9 @@ class ContouringEnv(gym.Env):
         is taken by an unsimulated axis, Z-only moves become pauses of their duration).
     rapid_feed_m_s : float — the machine's rapid rate for G00 moves (m/s; default the
         program's highest F).
+    num_threads : "auto" (default) or an int ≥ 1 — threads for a batch of 256 envs or more
+        (``gym.make_vec``); "auto" times the step and keeps the fastest team, an int fixes it
+        (1: serial). Results are bit-identical for any value (see ``EnvCore`` ``StepThreads``).
     feedrate_m_s, max_accel_m_s2, max_jerk_m_s3, settle_time_s : feed profile overrides.
     ideal : bool — switch off every effect the textbook model leaves out.
     structural_mode : bool — add the axial two-mass mode.
