@@ -16,6 +16,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from contour_env.env.borrow import borrowed
 from contour_env.env.kernel import AX_APPLIED, I_NSTEPS, _step_one
 
 from .laws import law
@@ -48,7 +49,25 @@ def run_single(
 ):  # fmt: skip
     """Env 0 from its current (reset) state to the end of the episode. Returns (n, bad):
     n steps recorded; bad is 1 when the controller's action was not finite (nothing stepped
-    then; the caller raises as the env would)."""
+    then; the caller raises as the env would). The loop runs on borrowed views of the arrays
+    (no reference counting per step; see contour_env.env.borrow): same arithmetic."""
+    B = borrowed
+    return _run_single(
+        kind, B(fp), B(st), B(flim), B(cfg), B(icfg), B(obs_tab), B(z), B(ax), B(k), B(eps),
+        B(est), B(status), B(seed), B(ref_pav), B(frame), B(scal), B(seg_type), B(seg_data),
+        B(seg_bounds), B(mat_T), B(mat_h), B(cont), B(nl), B(pidx), B(action), B(obs),
+        B(reward), B(terminated), B(truncated), B(scratch),
+        (B(info[0]), B(info[1]), B(info[2]), B(info[3])),
+        B(rec_time), B(rec_eps), B(rec_pos), B(rec_ref), B(rec_force),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _run_single(
+    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
+    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
+    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
+):  # fmt: skip
     A = z.shape[1]
     n_steps = icfg[I_NSTEPS]
     n_max = n_steps - 1

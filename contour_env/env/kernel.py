@@ -16,6 +16,7 @@ from numba import njit, prange
 from ..contour_error import path_distance
 from ..noise import standard_normal, uniform01
 from ..plants.kernel import NL_FD, NL_FMAX, NL_INV_RES, NL_RES, axis_step
+from .borrow import borrowed
 
 # float configuration (cfg)
 (
@@ -508,38 +509,40 @@ def env_step(
         return bad, 0, 0
     # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
     z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    # borrowed views (no reference count; see contour_env.env.borrow): the per-env code then
+    # pays no atomic reference-count updates, as in the parallel driver's thread team
     n_terminated, n_ended = _step_range(
         0,
         z.shape[0],
-        active,
-        cfg,
-        icfg,
-        obs_tab,
-        z,
-        z2,
-        ax,
-        k,
-        eps,
-        est,
-        status,
-        seed,
-        ref_pav,
-        frame,
-        seg_type,
-        seg_data,
-        seg_bounds,
-        mat_T,
-        mat_h,
-        cont,
-        nl,
-        pidx,
-        action,
-        obs,
-        reward,
-        terminated,
-        truncated,
-        scratch,
-        info,
+        borrowed(active),
+        borrowed(cfg),
+        borrowed(icfg),
+        borrowed(obs_tab),
+        borrowed(z),
+        borrowed(z2),
+        borrowed(ax),
+        borrowed(k),
+        borrowed(eps),
+        borrowed(est),
+        borrowed(status),
+        borrowed(seed),
+        borrowed(ref_pav),
+        borrowed(frame),
+        borrowed(seg_type),
+        borrowed(seg_data),
+        borrowed(seg_bounds),
+        borrowed(mat_T),
+        borrowed(mat_h),
+        borrowed(cont),
+        borrowed(nl),
+        borrowed(pidx),
+        borrowed(action),
+        borrowed(obs),
+        borrowed(reward),
+        borrowed(terminated),
+        borrowed(truncated),
+        borrowed(scratch),
+        (borrowed(info[0]), borrowed(info[1]), borrowed(info[2]), borrowed(info[3])),
     )
     return -1, n_terminated, n_ended
 
