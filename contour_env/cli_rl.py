@@ -39,14 +39,16 @@ def config_from_args(args):
         raise ValueError(
             "--gcode: needs --plant (hsm2, jee-triaxial, linear-motor, friction-table)"
         )
-    if not cases and not gcode:
-        raise ValueError(
-            "--case/--cases: give at least one training case (or --plant with --gcode)"
-        )
     variety = tuple(v.strip() for v in (args.paths or "").split(",") if v.strip())
     bad = [v for v in variety if v not in PATH_VARIETY]
     if bad:
         raise ValueError(f"--paths: unknown {bad}; allowed: {', '.join(PATH_VARIETY)}")
+    if not cases and not gcode and not (args.plant and variety):
+        raise ValueError(
+            "--case/--cases: give at least one training case (or --plant with --gcode, or "
+            "--plant with --paths, e.g. --paths families)"
+        )
+    families = tuple(v.strip() for v in (args.families or "").split(",") if v.strip())
     kw = dict(
         cases=tuple(cases),
         plant=args.plant,
@@ -64,10 +66,13 @@ def config_from_args(args):
         randomize_plant=args.randomize_plant,
         randomize_feedrate=args.randomize_feedrate,
         path_variety=variety,
+        families=families,
         eval_freq=args.eval_freq,
         checkpoint_freq=args.checkpoint_freq,
         torch_threads=args.threads,
     )
+    if args.validation_paths is not None:
+        kw["validation_paths"] = args.validation_paths
     if args.net_arch:
         try:
             kw["net_arch"] = tuple(int(v) for v in args.net_arch.split(","))
@@ -85,13 +90,30 @@ def cmd_train(args) -> int:
 
     cfg = config_from_args(args)
     res = train(cfg, args.out, resume=args.resume, progress=not args.no_progress)
-    print(
-        f"trained {res['timesteps']} timesteps in {res['wall_s']:.1f} s; RMS contour error "
-        f"{res['final_rms_contour_error_um']:.4g} µm (base {cfg.base}: "
-        f"{res['base_rms_contour_error_um']:.4g} µm)"
-    )
-    print(f"wrote {args.out} (model.zip, agent.json, config.json, learning_curve.png, …)")
+    print(f"trained {res['timesteps']} timesteps in {res['wall_s']:.1f} s")
+    if res["final_rms_contour_error_um"] is not None:
+        print(
+            f"training tasks: final RMS contour error {res['final_rms_contour_error_um']:.4g} µm "
+            f"(base {cfg.base}: {res['base_rms_contour_error_um']:.4g} µm)"
+        )
+    if res["kept"] == "best-validation":
+        val, base = (
+            res["validation_rms_contour_error_um"],
+            res["validation_base_rms_contour_error_um"],
+        )
+        print(
+            f"validation ({cfg.validation_paths} generated paths): kept the model of "
+            f"{res['kept_timesteps']} timesteps, RMS contour error {_um(val)} (base {cfg.base}: "
+            f"{_um(base)})"
+        )
+    else:
+        print("no validation: kept the final model")
+    print(f"wrote {args.out} (model.zip, agent.json, config.json, validation_curve.png, …)")
     return 0
+
+
+def _um(x) -> str:
+    return "not completed" if x is None else f"{x:.4g} µm"
 
 
 def cmd_evaluate(args) -> int:
@@ -210,7 +232,26 @@ def add_rl_commands(sub) -> None:
         metavar="FRACTION",
         help="feedrate ×U[1-F, 1+F] per episode (default 0)",
     )
-    p.add_argument("--paths", help="random path variety: circles,splines (default none)")
+    p.add_argument(
+        "--paths",
+        help="random path variety, comma-separated: circles, splines, families (the training "
+        "path families of docs/RESIDUAL_TRAINING.md; with --plant, no case needed) "
+        "(default none)",
+    )
+    p.add_argument(
+        "--families",
+        help="families drawn with --paths families and for the validation set, comma-"
+        "separated: polylines, arcs, circles, splines, helices (3-axis plants) (default: every "
+        "family the plant takes)",
+    )
+    p.add_argument(
+        "--validation-paths",
+        type=int,
+        default=None,
+        metavar="N",
+        help="generated validation paths; the model with the lowest mean RMS contour error on "
+        "them is kept (default 8; 0: no validation, the final model is kept)",
+    )
     p.add_argument(
         "--circle-radius", help="random circle radius range MIN,MAX in m (default 0.005,0.05)"
     )

@@ -20,6 +20,11 @@ Defaults (documented choices, not tuned by a hyperparameter search — see the R
   reached 0.44 µm at 0.77× / 1.16× PD's effort (README, "Shipped agents and what they do").
 - ``scale`` 0.05 of the force limit and one agent action per ms: see :mod:`agents.residual`.
 - TD3 exploration noise σ = 0.1 (sb3's suggestion); SAC's default entropy tuning.
+- ``validation_paths`` 8: the model kept is the best by its mean RMS contour error on 8
+  generated parts (one or two per family) that training never draws
+  (:mod:`agents.rl.validation`); ``path_variety`` ``families`` trains on the path families of
+  :mod:`agents.rl.families` (docs/RESIDUAL_TRAINING.md). G-code files of the held-out
+  evaluation suite are refused (:mod:`agents.rl.heldout`).
 """
 
 from __future__ import annotations
@@ -34,8 +39,11 @@ from pathlib import Path
 from agents.registry import controller_names
 from agents.residual import DEFAULT_SCALE, OBSERVATIONS
 
+from .families import check_families
+from .heldout import refuse_heldout
+
 ALGOS = ("sac", "td3", "ppo")
-PATH_VARIETY = ("circles", "splines")
+PATH_VARIETY = ("circles", "splines", "families")
 CONFIG_FORMAT = "contour_env.train_config/1"
 # keys that may differ on --resume
 RESUMABLE_KEYS = ("timesteps",)
@@ -74,6 +82,12 @@ class TrainConfig:
     path_variety: tuple = ()
     circle_radius_m: tuple = (0.005, 0.05)
     spline_size_m: float = 0.03
+    # training path families (agents.rl.families) drawn with path_variety "families", and the
+    # families of the validation set; () = every family the plant takes
+    families: tuple = ()
+    # generated validation paths scored at each evaluation; the model kept is the one with the
+    # lowest mean RMS contour error on them (0: no validation, the final model is kept)
+    validation_paths: int = 8
     # learner
     net_arch: tuple = (64, 64)
     learning_rate: float = 3e-4
@@ -96,6 +110,7 @@ class TrainConfig:
             "gcode",
             "gcode_sha256",
             "path_variety",
+            "families",
             "net_arch",
             "circle_radius_m",
         ):
@@ -110,12 +125,16 @@ class TrainConfig:
             raise ValueError(
                 f"base: unknown controller {self.base!r}; known: {', '.join(controller_names())}"
             )
-        if not self.cases and not self.gcode:
+        if not self.cases and not self.gcode and not (self.plant and self.path_variety):
             raise ValueError(
-                "cases: give at least one case (--case/--cases) or --plant with --gcode"
+                "cases: give at least one case (--case/--cases), or --plant with --gcode or "
+                "with --paths (e.g. --paths families)"
             )
         if self.gcode and not self.plant:
             raise ValueError("plant: G-code training paths need --plant")
+        for f in self.gcode:
+            # before the file is opened (digest below)
+            refuse_heldout(f, "gcode")
         if self.gcode and not self.gcode_sha256:
             for f in self.gcode:
                 if not Path(f).is_file():
@@ -136,6 +155,7 @@ class TrainConfig:
         _int(self, "learning_starts", 0)
         _int(self, "ppo_n_steps", 2)
         _int(self, "keep_checkpoints", 1)
+        _int(self, "validation_paths", 0)
         _int(self, "torch_threads", 1)
         for key in ("n_envs", "batch_size", "action_repeat", "eval_freq", "checkpoint_freq"):
             if getattr(self, key) is not None:
@@ -157,6 +177,8 @@ class TrainConfig:
                 f"path_variety: unknown {bad}; allowed: {', '.join(PATH_VARIETY)} (G-code files "
                 "with --gcode)"
             )
+        if self.families or "families" in self.path_variety or self.validation_paths:
+            check_families(self.families, self.plant_name)
         r = self.circle_radius_m
         if len(r) != 2 or not (0 < float(r[0]) <= float(r[1])):
             raise ValueError(f"circle_radius_m: (min, max) with 0 < min <= max (m), got {r!r}")
@@ -188,6 +210,12 @@ class TrainConfig:
             or self.path_variety
             or len(self.cases) + len(self.gcode) > 1
         )
+
+    @property
+    def training_families(self) -> tuple:
+        """The families drawn for training and validation (all the plant takes when
+        ``families`` is empty)."""
+        return check_families(self.families, self.plant_name)
 
     def eval_every(self) -> int:
         return self.eval_freq or max(1000, self.timesteps // 10)

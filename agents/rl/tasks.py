@@ -7,13 +7,20 @@ Every episode draws, with the sampler's own seeded generator:
   sweep uniform in [π/2, 2π] rad, either direction; plane: xy on a 2-axis plant, a uniformly
   random normal on a 3-axis plant) or ``splines`` (an open C² spline through 5 points drawn
   uniformly in a cube of side ``spline_size_m``, xy-plane on a 2-axis plant; see
-  :func:`contour_env.paths.spline`);
-- the feedrate: the source's own (the case's, the program's F words; random paths use the
-  first case's feed) times U[1 − f, 1 + f] with f = ``randomize_feedrate``;
+  :func:`contour_env.paths.spline`) or ``families``: a part of a family drawn uniformly from
+  ``TrainConfig.training_families`` with a path seed drawn in
+  [0, :data:`~agents.rl.families.VALIDATION_SEED_BASE`)
+  (:func:`~agents.rl.families.generate_path`: its own feed and feed limits, plant variation
+  with p = ``randomize_plant`` and a random disturbance phase);
+- the feedrate: the source's own (the case's, the program's F words; circles and splines use
+  the first case's feed, or the middle of the plant's family feed range without cases) times
+  U[1 − f, 1 + f] with f = ``randomize_feedrate`` (not for ``families``: they draw their own);
 - the true plant: every per-axis parameter of
   :data:`contour_env.plants.randomize.RANDOMIZED_FIELDS` times U[1 − p, 1 + p] with
   p = ``randomize_plant`` (:func:`contour_env.plants.randomize.randomized`); the base
   controller keeps the nominal model, as on a real machine.
+
+G-code files of the held-out evaluation suite are refused (:mod:`agents.rl.heldout`).
 """
 
 from __future__ import annotations
@@ -27,6 +34,9 @@ from contour_env.paths import circle, spline
 from contour_env.plants import Plant
 from contour_env.plants.randomize import randomized
 
+from .families import PLANT_RANGES, VALIDATION_SEED_BASE, generate_path, plant_key
+from .heldout import refuse_heldout
+
 DEFAULT_RANDOM_PATH_FEED_M_S = 0.02
 
 
@@ -39,13 +49,18 @@ class TaskSampler:
         self.plant_name = config.plant_name
         self.plant = Plant(self.plant_name)
         self.n_axes = self.plant.n_axes
+        for f in config.gcode:
+            refuse_heldout(f, "gcode")
+        self.families = config.training_families if "families" in config.path_variety else ()
         self.sources = [("case", c) for c in config.cases]
         self.sources += [("gcode", f) for f in config.gcode]
         self.sources += [(kind, None) for kind in config.path_variety]
         if config.cases:
             self.random_feed = get_case(config.cases[0]).feedrate_m_s
-        else:
+        elif config.gcode:
             self.random_feed = build_setup(plant=self.plant_name, path=config.gcode[0]).feedrate_m_s
+        else:
+            self.random_feed = float(np.mean(PLANT_RANGES[plant_key(self.plant_name)].feed_m_s))
 
     @property
     def fixed(self) -> bool:
@@ -63,6 +78,12 @@ class TaskSampler:
         rng = self.rng
         kind, value = self.sources[int(rng.integers(len(self.sources)))]
         kw = dict(cfg.env_config())
+        if kind == "families":
+            family = self.families[int(rng.integers(len(self.families)))]
+            seed = int(rng.integers(0, VALIDATION_SEED_BASE))
+            part = generate_path(family, self.plant_name, seed, plant_variation=cfg.randomize_plant)
+            kw.update(part.env_kwargs())
+            return kw
         if kind == "case":
             kw["case"] = value
             feed = get_case(value).feedrate_m_s

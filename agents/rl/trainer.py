@@ -5,11 +5,18 @@
 - ``config.json``: the exact :class:`~agents.rl.config.TrainConfig`;
 - ``agent.json``: what :class:`agents.residual.ResidualAgent` needs (algo, plant, axes,
   observation size, base, scale, action repeat) and the budget and cases;
-- ``model.zip``: the final sb3 model;
-- ``vecnormalize.pkl``, ``normalization.json``: observation statistics (sb3's pickle, for
+- ``model.zip``: the kept sb3 model: the one with the lowest validation RMS contour error
+  (keep-best, :mod:`agents.rl.validation`), or the final one with ``validation_paths`` 0;
+- ``vecnormalize.pkl``, ``normalization.json``: its observation statistics (sb3's pickle, for
   resuming; plain JSON, what the agent reads);
-- ``learning_curve.json``, ``learning_curve.png``: evaluation RMS contour error (µm) vs
-  timesteps, the base's level as a horizontal line;
+- ``final/``: the final model (``model.zip``, ``vecnormalize.pkl``, ``normalization.json``,
+  ``agent.json``), whichever model is kept;
+- ``best/step_*``: the best model by validation so far (a verified checkpoint directory);
+- ``validation_curve.json``, ``validation_curve.png``: the validation paths, the base's and
+  the policy's mean RMS contour error (µm) on them at every evaluation, and the best point;
+- ``learning_curve.json``, ``learning_curve.png``: RMS contour error (µm) on the training
+  cases / G-code files vs timesteps, the base's level as a horizontal line (runs with cases
+  or G-code files only);
 - ``checkpoints/step_*``: periodic checkpoints (:mod:`agents.rl.checkpoint`);
 - ``tb/``: TensorBoard logs, only when ``tensorboard`` is installed (it is not a dependency).
 
@@ -19,10 +26,14 @@ the task sampler (``seed``) and the env resets (``seed + 1``); a run is reproduc
 machine and thread count, a resumed run continues from the checkpoint's weights, statistics and
 replay buffer but not from the exact random-generator states.
 
-Evaluation (the learning curve): every ``eval_every()`` timesteps the current policy (with the
-current statistics, deterministic) is scored by :func:`contour_env.evaluation.evaluate` on each
-training case / G-code file without randomisation, seed 0; the curve is the mean RMS contour
-error over them.
+Evaluation: every ``eval_every()`` timesteps (and once at the end) the current policy (with
+the current statistics, deterministic) is scored by :func:`contour_env.evaluation.evaluate`
+
+- on the validation paths (generated, never trained on; :mod:`agents.rl.validation`): the
+  validation curve, and the model kept;
+- on each training case / G-code file without randomisation, seed 0: the learning curve (the
+  mean RMS contour error over them), a record of the fit to the training tasks that does not
+  choose the model.
 """
 
 from __future__ import annotations
@@ -52,18 +63,16 @@ from .checkpoint import (
 )
 from .config import TrainConfig, load_config
 from .tasks import TaskSampler
+from .validation import BestKeeper, Validator, curve_point, validation_record
 from .vec import ResidualTrainVecEnv
 
 CLIP_OBS = 10.0
+# the model files of a model DIR besides agent.json (the kept model, final/)
+MODEL_FILES = ("model.zip", "vecnormalize.pkl", "normalization.json")
 
 
 def tensorboard_available() -> bool:
     return importlib.util.find_spec("tensorboard") is not None
-
-
-def _atomic_save(out: Path, name: str, save) -> None:
-    """``save(tmp_path)`` then rename to ``out/name`` (mode from the umask, as io.py's)."""
-    atomic_save(out / name, save)
 
 
 def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:
@@ -130,7 +139,11 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
     }
 
 
-def plot_learning_curve(curve: list[dict], base_rms: float, base: str, title: str, out) -> None:
+def plot_learning_curve(
+    curve: list[dict], base_rms: float, base: str, title: str, out, best=None
+) -> None:
+    """RMS contour error vs timesteps with the base's level; ``best``: (timesteps, µm) of the
+    kept model, marked."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -142,7 +155,10 @@ def plot_learning_curve(curve: list[dict], base_rms: float, base: str, title: st
     x = [p["timesteps"] for p in curve]
     y = [p["rms_contour_error_um"] for p in curve]
     ax.plot(x, y, "o-", ms=3, label="residual agent (deterministic)")
-    ax.axhline(base_rms, color="k", ls="--", lw=1, label=f"base {base}: {base_rms:.3g} µm")
+    if np.isfinite(base_rms):  # ∞: the base did not complete a path
+        ax.axhline(base_rms, color="k", ls="--", lw=1, label=f"base {base}: {base_rms:.3g} µm")
+    if best is not None and best[0] is not None and np.isfinite(best[1]):
+        ax.plot([best[0]], [best[1]], "r*", ms=12, label=f"kept: {best[1]:.3g} µm")
     ax.set_xlabel("timesteps (agent steps)")
     ax.set_ylabel("RMS contour error (µm)")
     ax.set_title(title)
@@ -166,6 +182,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     ckpt_root = out / "checkpoints"
     ckpt = None
     curve: list[dict] = []
+    val_curve: list[dict] = []
     if resume:
         if not (out / "config.json").is_file():
             raise ValueError(f"--resume: {out} holds no training run (no config.json)")
@@ -181,6 +198,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             raise ValueError(f"--resume: {ckpt_root} holds no checkpoint")
         state = json.loads((ckpt / "state.json").read_text())
         curve = list(state["curve"])
+        val_curve = list(state.get("validation_curve", []))
         if state["timesteps"] >= cfg.timesteps:
             raise ValueError(
                 f"timesteps: the checkpoint has {state['timesteps']} timesteps already; give "
@@ -226,12 +244,10 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             tensorboard_log=tb,
             **_model_kwargs(cfg, n_actions),
         )
-    evaluator = Evaluator(sampler, cfg)
-    log(
-        f"base {cfg.base}: RMS contour error {evaluator.base_rms:.4g} µm (mean over "
-        f"{len(evaluator.tasks)} evaluation task(s)); action repeat {raw.action_repeat}, "
-        f"{cfg.num_envs} env(s), {'randomised' if cfg.randomized else 'fixed'} tasks"
-    )
+    evaluator = Evaluator(sampler, cfg) if sampler.nominal_tasks() else None
+    validator = Validator(cfg) if cfg.validation_paths else None
+    best = BestKeeper(out) if validator is not None else None
+    _log_start(log, cfg, raw, evaluator, validator)
 
     def meta_now():
         return _metadata(cfg, raw, model.num_timesteps)
@@ -244,14 +260,28 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         if with_buffer and cfg.algo != "ppo":
             model.save_replay_buffer(folder / "replay_buffer.pkl")
         atomic_write_json(
-            folder / "state.json", {"timesteps": int(model.num_timesteps), "curve": curve}
+            folder / "state.json",
+            {
+                "timesteps": int(model.num_timesteps),
+                "curve": curve,
+                "validation_curve": val_curve,
+            },
         )
+
+    def validate() -> None:
+        """Score the policy on the validation paths; keep it if it is the best so far."""
+        t = int(model.num_timesteps)
+        rms, per_path = validator(meta_now(), model, normalizer_of(venv))
+        val_curve.append(curve_point(t, rms, per_path))
+        if best.offer(t, rms, lambda d: write_files(d, False)):
+            log(f"validation: new best {rms:.4g} µm at {t} timesteps")
 
     class Hooks(BaseCallback):
         def __init__(self):
             super().__init__()
             self.bar = None
-            self.next_eval = (curve[-1]["timesteps"] if curve else 0) + cfg.eval_every()
+            last = max((pt["timesteps"] for pt in curve + val_curve), default=0)
+            self.next_eval = last + cfg.eval_every()
             self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
             self.ckpt_due = False
 
@@ -264,11 +294,20 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 )
 
         def _evaluate(self):
-            rms = evaluator(meta_now(), model, normalizer_of(venv))
-            curve.append({"timesteps": int(self.num_timesteps), "rms_contour_error_um": rms})
+            shown = {}
+            if evaluator is not None:
+                rms = evaluator(meta_now(), model, normalizer_of(venv))
+                curve.append({"timesteps": int(self.num_timesteps), "rms_contour_error_um": rms})
+                self.logger.record("eval/rms_contour_error_um", rms)
+                shown.update(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
+            if validator is not None:
+                validate()
+                val = val_curve[-1]["rms_contour_error_um"]
+                if val is not None:  # None: a validation path not completed
+                    self.logger.record("eval/validation_rms_contour_error_um", val)
+                shown.update(val_best_um=f"{best.rms:.3g}", val_base_um=f"{validator.base_rms:.3g}")
             if self.bar is not None:
-                self.bar.set_postfix(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
-            self.logger.record("eval/rms_contour_error_um", rms)
+                self.bar.set_postfix(**shown)
 
         def _on_step(self) -> bool:
             if self.bar is not None:
@@ -317,36 +356,119 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     )
     wall = time.perf_counter() - t0
     # the final model (the last periodic evaluation may precede the last gradient steps)
-    rms = evaluator(meta_now(), model, normalizer_of(venv))
-    if curve and curve[-1]["timesteps"] == model.num_timesteps:
-        curve.pop()
-    curve.append({"timesteps": int(model.num_timesteps), "rms_contour_error_um": rms})
+    final_rms = None
+    if evaluator is not None:
+        final_rms = evaluator(meta_now(), model, normalizer_of(venv))
+        if curve and curve[-1]["timesteps"] == model.num_timesteps:
+            curve.pop()
+        curve.append({"timesteps": int(model.num_timesteps), "rms_contour_error_um": final_rms})
+    if validator is not None and (
+        not val_curve or val_curve[-1]["timesteps"] < model.num_timesteps
+    ):
+        # the final model, unless a periodic validation saw these timesteps (each point of the
+        # curve is the score of the model kept for it)
+        validate()
     write_checkpoint(
         ckpt_root, model.num_timesteps, lambda d: write_files(d, True), cfg.keep_checkpoints
     )
-    # the final files: each written to a temporary name and renamed
-    _atomic_save(out, "model.zip", lambda p: model.save(p))
-    _atomic_save(out, "vecnormalize.pkl", lambda p: venv.save(p))
-    atomic_write_json(out / "normalization.json", normalizer_of(venv).to_dict())
-    meta = meta_now()
-    meta["train_wall_s"] = wall
-    meta["base_rms_contour_error_um"] = evaluator.base_rms
-    meta["final_rms_contour_error_um"] = curve[-1]["rms_contour_error_um"]
-    atomic_write_json(out / "agent.json", meta)
-    atomic_write_json(
-        out / "learning_curve.json",
-        {"base": cfg.base, "base_rms_contour_error_um": evaluator.base_rms, "curve": curve},
-    )
-    title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or meta['gcode'])}"
-    plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")
+    final_dir = out / "final"
+    for name, save in (
+        ("model.zip", lambda p: model.save(p)),
+        ("vecnormalize.pkl", lambda p: venv.save(p)),
+    ):
+        atomic_save(final_dir / name, save)
+    atomic_write_json(final_dir / "normalization.json", normalizer_of(venv).to_dict())
+    atomic_write_json(final_dir / "agent.json", meta_now())
     venv.close()
-    for tmp in ckpt_root.glob(".tmp-*"):
-        shutil.rmtree(tmp, ignore_errors=True)
-    return {
+    summary = {
         "out": str(out),
         "timesteps": int(model.num_timesteps),
         "wall_s": wall,
-        "base_rms_contour_error_um": evaluator.base_rms,
-        "final_rms_contour_error_um": curve[-1]["rms_contour_error_um"],
+        "base_rms_contour_error_um": evaluator.base_rms if evaluator is not None else None,
+        "final_rms_contour_error_um": final_rms,
         "curve": curve,
+    }
+    summary.update(_write_kept_model(out, cfg, final_dir, best, validator, val_curve, summary))
+    if evaluator is not None:
+        atomic_write_json(
+            out / "learning_curve.json",
+            {"base": cfg.base, "base_rms_contour_error_um": evaluator.base_rms, "curve": curve},
+        )
+        title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or summary['gcode'])}"
+        plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")
+    for root in (ckpt_root, out / "best"):
+        for tmp in root.glob(".tmp-*"):
+            shutil.rmtree(tmp, ignore_errors=True)
+    summary.pop("gcode")
+    return summary
+
+
+def _log_start(log, cfg: TrainConfig, raw, evaluator, validator) -> None:
+    parts = []
+    if evaluator is not None:
+        parts.append(
+            f"base {cfg.base}: RMS contour error {evaluator.base_rms:.4g} µm (mean over "
+            f"{len(evaluator.tasks)} training task(s))"
+        )
+    if validator is not None:
+        parts.append(
+            f"validation: base {validator.base_rms:.4g} µm (mean over {len(validator.paths)} "
+            f"generated path(s) of {', '.join(cfg.training_families)}); the best model by "
+            "validation is kept"
+        )
+    else:
+        parts.append("no validation (validation_paths 0): the final model is kept")
+    parts.append(
+        f"action repeat {raw.action_repeat}, {cfg.num_envs} env(s), "
+        f"{'randomised' if cfg.randomized else 'fixed'} tasks"
+    )
+    log("; ".join(parts))
+
+
+def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curve, summary):
+    """The kept model's files at the top of ``out`` (the best by validation, or the final
+    model without validation), its ``agent.json`` with the run's figures, and the validation
+    curve; returns the summary's validation keys."""
+    source = best.folder if best is not None and best.folder is not None else final_dir
+    for name in MODEL_FILES:
+        atomic_save(out / name, lambda p, src=source / name: shutil.copyfile(src, p))
+    meta = json.loads((source / "agent.json").read_text())
+    extra = {
+        "kept": "best-validation" if source != final_dir else "final",
+        "final_timesteps": summary["timesteps"],
+        "train_wall_s": summary["wall_s"],
+        "base_rms_contour_error_um": summary["base_rms_contour_error_um"],
+        "final_rms_contour_error_um": summary["final_rms_contour_error_um"],
+        "validation_paths": cfg.validation_paths,
+        "validation_rms_contour_error_um": None,
+        "validation_base_rms_contour_error_um": None,
+    }
+    if validator is not None:
+        record = validation_record(validator, cfg.base, val_curve, best)
+        atomic_write_json(out / "validation_curve.json", record)
+        extra["validation_rms_contour_error_um"] = record["best"]["validation_rms_contour_error_um"]
+        extra["validation_base_rms_contour_error_um"] = record["base_rms_contour_error_um"]
+        points = [
+            {"timesteps": p["timesteps"], "rms_contour_error_um": p["rms_contour_error_um"]}
+            for p in val_curve
+            if p["rms_contour_error_um"] is not None
+        ]
+        plot_learning_curve(
+            points,
+            validator.base_rms,
+            cfg.base,
+            f"{cfg.algo} + {cfg.base}, {cfg.plant_name}: validation ({len(validator.paths)} "
+            f"generated paths), best at {best.timesteps} timesteps",
+            out / "validation_curve.png",
+            best=(best.timesteps, best.rms),
+        )
+    meta.update(extra)
+    atomic_write_json(out / "agent.json", meta)
+    return {
+        "kept": extra["kept"],
+        "kept_timesteps": int(meta["timesteps"]),
+        "validation_rms_contour_error_um": extra["validation_rms_contour_error_um"],
+        "validation_base_rms_contour_error_um": extra["validation_base_rms_contour_error_um"],
+        "validation_curve": list(val_curve),
+        "gcode": meta["gcode"],
     }

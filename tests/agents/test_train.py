@@ -28,6 +28,7 @@ TINY = dict(
     checkpoint_freq=150,
     ppo_n_steps=32,
     net_arch=(16, 16),
+    validation_paths=1,
 )
 
 
@@ -84,7 +85,8 @@ def _check_run(out, res, algo):
 def test_save_load_gives_identical_actions(sac_run):
     out, _, _ = sac_run
     newest = checkpoint_dirs(out / "checkpoints")[-1]  # a second, independent save
-    a1 = ResidualAgent(out)
+    # the final model (out/ itself holds the best by validation, maybe an earlier one)
+    a1 = ResidualAgent(out / "final")
     model2 = load_model(newest / "model.zip", "sac")
     a2 = ResidualAgent.from_parts(
         a1.meta, model2, load_normalization(newest / "normalization.json")
@@ -218,7 +220,7 @@ def test_cli_train_evaluate_and_models(tmp_path, gcode, capsys, sac_run):
         [
             "train", "--plant", "friction-table", "--gcode", gcode, "--base", "pd",
             "--algo", "ppo", "--timesteps", "64", "--seed", "1", "--out", str(out),
-            "--n-envs", "2", "--net-arch", "16,16", "--no-progress",
+            "--n-envs", "2", "--net-arch", "16,16", "--no-progress", "--validation-paths", "1",
         ]
     )  # fmt: skip
     assert rc == 0

@@ -1,0 +1,147 @@
+"""Keep-best-by-validation (agents.rl.validation): the model kept in a run's folder is the one
+with the lowest validation RMS contour error, the validation curve is recorded, and the final
+model is kept beside it."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import agents.rl.trainer as trainer
+from agents.residual import ResidualAgent
+from agents.rl import TrainConfig, train
+from agents.rl.checkpoint import checkpoint_dirs, load_model
+from agents.rl.validation import BestKeeper, Validator
+
+TINY = dict(
+    plant="friction-table",
+    path_variety=("families",),
+    families=("arcs", "polylines"),
+    algo="sac",
+    seed=0,
+    learning_starts=50,
+    buffer_size=2000,
+    batch_size=32,
+    checkpoint_freq=100,
+    keep_checkpoints=10,
+    net_arch=(16, 16),
+)
+
+
+def _weights(model) -> np.ndarray:
+    return np.concatenate(
+        [v.detach().cpu().numpy().ravel() for v in model.policy.state_dict().values()]
+    )
+
+
+def test_best_keeper_keeps_the_strictly_lowest_and_resumes(tmp_path):
+    keeper = BestKeeper(tmp_path)
+    assert keeper.folder is None and keeper.rms == math.inf
+    kept = []
+    offers = ((100, math.inf), (200, 5.0), (300, 3.0), (400, 4.0), (500, 3.0), (600, math.inf))
+    for t, rms in offers:
+
+        def writer(folder, t=t):
+            (folder / "who").write_text(str(t))
+
+        kept.append(keeper.offer(t, rms, writer))
+    # the first is kept while nothing better exists; a tie keeps the earlier model
+    assert kept == [True, True, True, False, False, False]
+    assert (keeper.timesteps, keeper.rms) == (300, 3.0)
+    assert [d.name for d in checkpoint_dirs(tmp_path / "best")] == ["step_000000000300"]
+    assert (keeper.folder / "who").read_text() == "300"
+    again = BestKeeper(tmp_path)
+    assert (again.timesteps, again.rms, again.folder) == (300, 3.0, keeper.folder)
+
+
+@pytest.fixture(scope="module")
+def scripted_run(tmp_path_factory):
+    """A tiny run whose validation scores are scripted: the best is the second evaluation
+    (200 timesteps), not the last; each call records the policy's weights."""
+    scores = iter([5.0, 2.0, 3.0, 4.0])
+    seen = []
+
+    class Scripted(Validator):
+        def __call__(self, meta, model, normalizer):
+            seen.append((int(model.num_timesteps), _weights(model)))
+            rms = next(scores)
+            return rms, [rms] * len(self.paths)
+
+    saved = trainer.Validator
+    trainer.Validator = Scripted
+    try:
+        out = tmp_path_factory.mktemp("runs") / "scripted"
+        cfg = TrainConfig(timesteps=400, eval_freq=100, validation_paths=1, **TINY)
+        res = train(cfg, out, progress=False, log=lambda s: None)
+    finally:
+        trainer.Validator = saved
+    return out, res, seen
+
+
+def test_the_kept_model_is_the_best_by_validation_not_the_final(scripted_run):
+    out, res, seen = scripted_run
+    # evaluations at 100, 200, 300 and 400 (the last step: no second one for the final model)
+    assert [t for t, _ in seen] == [100, 200, 300, 400]
+    assert res["kept"] == "best-validation" and res["kept_timesteps"] == 200
+    assert res["validation_rms_contour_error_um"] == 2.0
+    kept = load_model(out / "model.zip", "sac")
+    np.testing.assert_array_equal(_weights(kept), seen[1][1])
+    final = load_model(out / "final" / "model.zip", "sac")
+    assert not np.array_equal(_weights(final), seen[1][1])
+    meta = json.loads((out / "agent.json").read_text())
+    assert meta["kept"] == "best-validation" and meta["timesteps"] == 200
+    assert meta["final_timesteps"] == 400 and meta["validation_rms_contour_error_um"] == 2.0
+    assert json.loads((out / "final" / "agent.json").read_text())["timesteps"] == 400
+    # the observation statistics kept are those of the best model (saved with it)
+    best_dir = checkpoint_dirs(out / "best")[-1]
+    assert (out / "normalization.json").read_bytes() == (
+        best_dir / "normalization.json"
+    ).read_bytes()
+    ResidualAgent(out)  # a usable model DIR
+
+
+def test_the_validation_curve_is_recorded(scripted_run):
+    out, _, _ = scripted_run
+    rec = json.loads((out / "validation_curve.json").read_text())
+    curve = rec["curve"]
+    assert [p["timesteps"] for p in curve] == [100, 200, 300, 400]
+    assert [p["rms_contour_error_um"] for p in curve] == [5.0, 2.0, 3.0, 4.0]
+    assert rec["best"] == {"timesteps": 200, "validation_rms_contour_error_um": 2.0}
+    assert len(rec["paths"]) == 1 and rec["paths"][0]["family"] == "arcs"
+    assert rec["paths"][0]["seed"] >= 2**31
+    assert rec["base_rms_contour_error_um"] > 0
+    assert (out / "validation_curve.png").stat().st_size > 0
+    # a families-only run has no training cases: no training-task learning curve
+    assert not (out / "learning_curve.json").exists()
+
+
+def test_real_validation_keeps_the_argmin_and_rescoring_it_agrees(tmp_path):
+    cfg = TrainConfig(timesteps=300, eval_freq=100, validation_paths=2, **TINY)
+    out = tmp_path / "real"
+    res = train(cfg, out, progress=False, log=lambda s: None)
+    rec = json.loads((out / "validation_curve.json").read_text())
+    values = [p["rms_contour_error_um"] for p in rec["curve"]]
+    k = int(np.argmin(values))
+    assert rec["best"]["timesteps"] == rec["curve"][k]["timesteps"] == res["kept_timesteps"]
+    # the kept model, loaded from disk, scores on the validation paths what was recorded
+    validator = Validator(cfg)
+    rms, per_path = validator(
+        json.loads((out / "agent.json").read_text()),
+        ResidualAgent(out).model,
+        ResidualAgent(out).norm,
+    )
+    assert rms == pytest.approx(values[k], rel=1e-9)
+    assert per_path == pytest.approx(rec["curve"][k]["per_path_um"], rel=1e-9)
+    assert rec["base_per_path_um"] == pytest.approx(validator.base_per_path, rel=1e-12)
+
+
+def test_without_validation_the_final_model_is_kept(tmp_path):
+    cfg = TrainConfig(timesteps=120, eval_freq=100, **{**TINY, "validation_paths": 0})
+    out = tmp_path / "noval"
+    res = train(cfg, out, progress=False, log=lambda s: None)
+    assert res["kept"] == "final" and res["validation_rms_contour_error_um"] is None
+    assert (out / "model.zip").read_bytes() == (out / "final" / "model.zip").read_bytes()
+    assert not (out / "validation_curve.json").exists() and not (out / "best").exists()

@@ -1,0 +1,24 @@
+; letter 'P' outline, V-bit engraving, exported by a sign-making CAM
+; grbl 1.1, mm
+G21 G90 G17
+G94
+M3 S18000
+G0 Z3
+G0 X0 Y0
+G1 Z-0.5 F120
+G1 X7 Y0 F900
+G1 X7 Y14
+G1 X16 Y14
+G3 X16 Y40 I0 J13
+G1 X0 Y40
+G1 X0 Y0
+G0 Z3
+G0 X7 Y21
+G1 Z-0.5 F120
+G1 X7 Y33 F600
+G1 X16 Y33
+G2 X16 Y21 I0 J-6
+G1 X7 Y21
+G0 Z3
+M5
+M2
