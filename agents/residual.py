@@ -3,7 +3,7 @@
 Residual policy learning (Johannink et al. 2019, "Residual Reinforcement Learning for Robot
 Control"; Silver et al. 2018, "Residual Policy Learning"): the applied command is
 
-    a_applied = clip(a_base + scale · clip(a_agent, −1, 1), −1, 1)        (fractions of the
+    a_applied = clip(a_base + scale · m ⊙ clip(a_agent, −1, 1), −1, 1)    (fractions of the
                                                                             force limit)
 
 with ``a_base`` the base controller's env action (its command in the plant's units divided by
@@ -15,6 +15,14 @@ of the limit on ``friction-table`` and 10–30 % on ``hsm2``/``jee-triaxial``, s
 cancel friction and ripple without letting a bad agent leave the base's neighbourhood; raise
 it explicitly to give the agent more authority). With a zero agent action the wrappers apply
 ``a_base`` bit for bit, so they reproduce the base controller exactly.
+
+``m`` is the axis mask (``residual_axes``): by default 1 on the axes the path uses and 0 on
+the others (:func:`path_axes_mask`: the reference spans more than 1 µm on the axis), so a
+residual never moves an axis that should stand still — the z axis of a planar part on a
+three-axis plant, where the base commands nothing (the linear-motor agent shipped before this
+option drove z with 11 N RMS on planar parts). ``residual_axes="all"`` keeps every axis (what
+agents trained before the option used; their ``agent.json`` has no ``residual_axes`` and they
+are run that way).
 
 ``observe_base_command`` appends ``a_base`` (the base command about to be applied, as a
 fraction of the force limit) to the observation. Default False: the residual learned better
@@ -59,6 +67,10 @@ from .registry import controller_names, make_controller
 DEFAULT_SCALE = 0.05
 # what of the env observation the agent sees (see observation_fields)
 OBSERVATIONS = ("full", "errors")
+# which axes take a residual (see path_axes_mask)
+RESIDUAL_AXES = ("path", "all")
+# an axis whose reference moves less than this over the episode is not used by the path (m)
+AXIS_USE_TOL_M = 1e-6
 DEFAULT_AGENT_PERIOD_S = 1e-3
 MODEL_FORMAT = "contour_env.residual_agent/1"
 
@@ -90,6 +102,43 @@ def _check_repeat(action_repeat, servo_period_s) -> int:
     if action_repeat < 1:
         raise ValueError(f"action_repeat: must be >= 1 servo period, got {action_repeat}")
     return int(action_repeat)
+
+
+def _check_axes(residual_axes) -> str:
+    if residual_axes not in RESIDUAL_AXES:
+        raise ValueError(
+            f"residual_axes: must be one of {', '.join(RESIDUAL_AXES)}, got {residual_axes!r}"
+        )
+    return residual_axes
+
+
+def path_axes_mask(core) -> np.ndarray:
+    """(n_axes,) float: 1.0 for each axis whose reference position spans more than
+    :data:`AXIS_USE_TOL_M` over the episode (the path uses it), 0.0 for the others (e.g. z
+    of a planar part on a three-axis plant, where the base commands nothing)."""
+    p = np.asarray(core.ref_pav)[:, 0, : core.dim]
+    span = p.max(axis=0) - p.min(axis=0)
+    return (span > AXIS_USE_TOL_M).astype(np.float64)
+
+
+class _AxisMask:
+    """The residual's axis mask for one env core, recomputed when the core's reference
+    changes (a new path); all ones with ``residual_axes="all"``."""
+
+    def __init__(self, core, residual_axes: str):
+        self.core = core
+        self.residual_axes = _check_axes(residual_axes)
+        self._ref = None
+        self._mask = np.ones(core.dim)
+
+    def __call__(self) -> np.ndarray:
+        if self.residual_axes == "all":
+            return self._mask
+        ref = self.core.ref_pav
+        if ref is not self._ref:
+            self._mask = path_axes_mask(self.core)
+            self._ref = ref
+        return self._mask
 
 
 def _check_penalty(value) -> float:
@@ -158,11 +207,13 @@ def _agent_action(action, shape, what="action") -> np.ndarray:
 
 def _configure(
     w, env, core, base, scale, observe_base_command, observation, action_repeat,
-    residual_penalty, base_kwargs,
+    residual_penalty, base_kwargs, residual_axes,
 ) -> None:  # fmt: skip
     """The residual law's settings, checked, on wrapper ``w`` (shared by both wrappers)."""
     w.core = core
     w.scale = _check_scale(scale)
+    w.residual_axes = _check_axes(residual_axes)
+    w._axis_mask = _AxisMask(core, residual_axes)
     w.observe_base_command = bool(observe_base_command)
     w.observation = observation
     w._fields = observation_fields(core, observation)
@@ -188,6 +239,9 @@ class ResidualWrapper(gym.Wrapper):
     action_repeat : int or None — servo periods per agent action (None: one per ms).
     residual_penalty : float — reward weight on ‖a_agent‖² / n (default 0; the trainer uses 1).
     base_kwargs : dict — arguments of the base controller when ``base`` is a name.
+    residual_axes : ``"path"`` (default: a residual only on the axes the path uses, see
+        :func:`path_axes_mask`; zero on the others, so an agent cannot disturb an axis that
+        should stand still) or ``"all"`` (every axis; the agents shipped before this option).
 
     ``info`` gains ``base_action`` and ``residual_action`` (fractions of the force limit, the
     last servo period of the step) and ``servo_steps`` (periods simulated by the step).
@@ -204,6 +258,7 @@ class ResidualWrapper(gym.Wrapper):
         residual_penalty=0.0,
         base_kwargs=None,
         observation="full",
+        residual_axes="path",
     ):
         holder, core = _core_of(env)
         if hasattr(holder, "num_envs"):
@@ -211,7 +266,7 @@ class ResidualWrapper(gym.Wrapper):
         super().__init__(env)
         _configure(
             self, env, core, base, scale, observe_base_command, observation, action_repeat,
-            residual_penalty, base_kwargs,
+            residual_penalty, base_kwargs, residual_axes,
         )  # fmt: skip
         n = core.dim
         self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
@@ -234,7 +289,7 @@ class ResidualWrapper(gym.Wrapper):
         return self._observe(obs), info
 
     def step(self, action):
-        res = self.scale * _agent_action(action, (self.n_axes,))
+        res = self.scale * _agent_action(action, (self.n_axes,)) * self._axis_mask()
         total, steps = 0.0, 0
         obs = info = None
         terminated = truncated = False
@@ -283,6 +338,7 @@ class ResidualVectorWrapper(VectorWrapper):
         base_kwargs=None,
         observation="full",
         autoreset_mode="next_step",
+        residual_axes="path",
     ):
         holder, core = _core_of(env)
         if not hasattr(holder, "num_envs"):
@@ -298,7 +354,7 @@ class ResidualVectorWrapper(VectorWrapper):
         )
         _configure(
             self, env, core, base, scale, observe_base_command, observation, action_repeat,
-            residual_penalty, base_kwargs,
+            residual_penalty, base_kwargs, residual_axes,
         )  # fmt: skip
         n = core.dim
         self.n_axes = n
@@ -337,7 +393,7 @@ class ResidualVectorWrapper(VectorWrapper):
     def step(self, actions):
         core = self.core
         B, n = self.num_envs, self.n_axes
-        res = self.scale * _agent_action(actions, (B, n), "actions")
+        res = self.scale * _agent_action(actions, (B, n), "actions") * self._axis_mask()
         resetting = self._needs_reset.copy()
         if resetting.any():
             self._reset_envs(resetting)
@@ -469,6 +525,9 @@ class ResidualAgent(Controller):
                 f"{', '.join(OBSERVATIONS)}"
             )
         self.action_repeat = int(meta["action_repeat"])
+        # agents trained before the option had a residual on every axis
+        self.residual_axes = _check_axes(meta.get("residual_axes", "all"))
+        self._axis_mask = None
         self.base_name = meta["base"]
         self.base_kwargs = dict(meta.get("base_kwargs") or {})
         self.base: Controller | None = None
@@ -499,6 +558,7 @@ class ResidualAgent(Controller):
                 " (preview_times_s or observation options changed)"
             )
         self.base = make_base(self.base_name, env, self.base_kwargs)
+        self._axis_mask = _AxisMask(core, self.residual_axes)
         super().bind(env)
         return self
 
@@ -536,7 +596,8 @@ class ResidualAgent(Controller):
             a = self.residual(self._core.obs[:B], base_a)
             self._res[:B][due] = a[due]
         self._count[:B] += 1
-        return np.clip(base_a.astype(np.float64) + self.scale * self._res[:B], -1.0, 1.0)
+        res = self.scale * self._res[:B] * self._axis_mask()
+        return np.clip(base_a.astype(np.float64) + res, -1.0, 1.0)
 
     def act(self, signals: dict) -> np.ndarray:
         return self.applied_action(signals) * self.force_limit

@@ -58,11 +58,15 @@ def config_from_args(args):
         timesteps=args.timesteps,
         seed=args.seed,
         n_envs=args.n_envs,
+        train_freq=args.train_freq,
+        time_budget_s=args.time_budget,
+        gradient_steps=args.gradient_steps,
         scale=args.scale,
         observe_base_command=args.observe_base_command,
         observation=args.observation,
         action_repeat=args.action_repeat,
         residual_penalty=args.residual_penalty,
+        residual_axes=args.residual_axes,
         randomize_plant=args.randomize_plant,
         randomize_feedrate=args.randomize_feedrate,
         path_variety=variety,
@@ -189,6 +193,26 @@ def add_rl_commands(sub) -> None:
     )
     p.add_argument("--n-envs", type=int, default=None, help="envs (default 1 SAC/TD3, 8 PPO)")
     p.add_argument(
+        "--time-budget",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="stop after this much training time (evaluations not counted), whatever "
+        "--timesteps says (default: none)",
+    )
+    p.add_argument(
+        "--train-freq",
+        type=int,
+        default=None,
+        help="SAC/TD3: update every N steps of each env (default 1)",
+    )
+    p.add_argument(
+        "--gradient-steps",
+        type=int,
+        default=None,
+        help="SAC/TD3: gradient steps per update (default 1; -1: one per transition collected)",
+    )
+    p.add_argument(
         "--scale",
         type=float,
         default=None,
@@ -217,6 +241,12 @@ def add_rl_commands(sub) -> None:
         type=float,
         default=None,
         help="reward weight on the squared agent action (default 1.0)",
+    )
+    p.add_argument(
+        "--residual-axes",
+        choices=("path", "all"),
+        default="path",
+        help="axes that take a residual: those the path uses (path, default) or all",
     )
     p.add_argument(
         "--randomize-plant",

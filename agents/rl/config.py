@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from agents.registry import controller_names
-from agents.residual import DEFAULT_SCALE, OBSERVATIONS
+from agents.residual import DEFAULT_SCALE, OBSERVATIONS, RESIDUAL_AXES
 
 from .families import check_families
 from .heldout import refuse_heldout
@@ -46,7 +46,7 @@ ALGOS = ("sac", "td3", "ppo")
 PATH_VARIETY = ("circles", "splines", "families")
 CONFIG_FORMAT = "contour_env.train_config/1"
 # keys that may differ on --resume
-RESUMABLE_KEYS = ("timesteps",)
+RESUMABLE_KEYS = ("timesteps", "time_budget_s")
 
 
 def _file_digest(path: str) -> str:
@@ -72,6 +72,8 @@ class TrainConfig:
     observation: str = "full"
     action_repeat: int | None = None
     residual_penalty: float = 1.0
+    # which axes take a residual: "path" (the axes the path uses) or "all"
+    residual_axes: str = "path"
     # env reward weights (ContouringEnv)
     w_contour: float = 1.0
     w_lag: float = 0.0
@@ -95,6 +97,13 @@ class TrainConfig:
     batch_size: int | None = None
     buffer_size: int = 200_000
     learning_starts: int = 1_000
+    # SAC/TD3: update every train_freq steps of each env with gradient_steps gradient steps
+    # (None: sb3's defaults, 1 and 1; gradient_steps -1: as many as transitions collected)
+    train_freq: int | None = None
+    gradient_steps: int | None = None
+    # stop training once this much training time (s, evaluations not counted) has passed,
+    # whatever timesteps says (None: no limit); the run then ends as at its last timestep
+    time_budget_s: float | None = None
     ppo_n_steps: int = 256
     # bookkeeping
     eval_freq: int | None = None
@@ -130,6 +139,11 @@ class TrainConfig:
                 "cases: give at least one case (--case/--cases), or --plant with --gcode or "
                 "with --paths (e.g. --paths families)"
             )
+        if self.residual_axes not in RESIDUAL_AXES:
+            raise ValueError(
+                f"residual_axes: must be one of {', '.join(RESIDUAL_AXES)}, got "
+                f"{self.residual_axes!r}"
+            )
         if self.gcode and not self.plant:
             raise ValueError("plant: G-code training paths need --plant")
         for f in self.gcode:
@@ -157,7 +171,24 @@ class TrainConfig:
         _int(self, "keep_checkpoints", 1)
         _int(self, "validation_paths", 0)
         _int(self, "torch_threads", 1)
-        for key in ("n_envs", "batch_size", "action_repeat", "eval_freq", "checkpoint_freq"):
+        tb = self.time_budget_s
+        if tb is not None and (
+            isinstance(tb, bool) or not isinstance(tb, (int, float)) or not (0 < tb < math.inf)
+        ):
+            raise ValueError(f"time_budget_s: a finite number of seconds > 0 or None, got {tb!r}")
+        gs = self.gradient_steps
+        if gs is not None and (
+            isinstance(gs, bool) or not isinstance(gs, int) or (gs < 1 and gs != -1)
+        ):
+            raise ValueError(f"gradient_steps: an integer >= 1 or -1, got {gs!r}")
+        if self.algo == "ppo" and (self.train_freq is not None or self.gradient_steps is not None):
+            raise ValueError(
+                "train_freq, gradient_steps: options of the off-policy algorithms (sac, td3), "
+                "not ppo"
+            )
+        for key in (
+            "n_envs", "batch_size", "action_repeat", "eval_freq", "checkpoint_freq", "train_freq",
+        ):  # fmt: skip
             if getattr(self, key) is not None:
                 _int(self, key, 1)
         for key, lo, hi in (
@@ -235,6 +266,7 @@ class TrainConfig:
             "observation": self.observation,
             "action_repeat": self.action_repeat,
             "residual_penalty": self.residual_penalty,
+            "residual_axes": self.residual_axes,
         }
 
     # --- JSON ------------------------------------------------------------------------------
@@ -256,6 +288,8 @@ class TrainConfig:
         fmt = data.pop("format", None)
         if fmt != CONFIG_FORMAT:
             raise ValueError(f"config: format {fmt!r}, expected {CONFIG_FORMAT!r}")
+        # a run configured before residual_axes existed had a residual on every axis
+        data.setdefault("residual_axes", "all")
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:

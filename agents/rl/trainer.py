@@ -87,6 +87,10 @@ def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:
             learning_starts=cfg.learning_starts,
             batch_size=cfg.batch_size or 256,
         )
+        if cfg.train_freq is not None:
+            kw["train_freq"] = cfg.train_freq
+        if cfg.gradient_steps is not None:
+            kw["gradient_steps"] = cfg.gradient_steps
         if cfg.algo == "td3":
             from stable_baselines3.common.noise import NormalActionNoise
 
@@ -130,6 +134,7 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
         "scale": cfg.scale,
         "observe_base_command": cfg.observe_base_command,
         "observation": cfg.observation,
+        "residual_axes": cfg.residual_axes,
         "action_repeat": int(g.action_repeat),
         "servo_period_s": float(g.core.T),
         "cases": list(cfg.cases),
@@ -276,6 +281,17 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         if best.offer(t, rms, lambda d: write_files(d, False)):
             log(f"validation: new best {rms:.4g} µm at {t} timesteps")
 
+    # training wall time (s) without the evaluations and validations, carried over a resume:
+    # the curves' "train_s", what time-to-target figures read
+    clock = {
+        "start": time.perf_counter(),
+        "eval": 0.0,
+        "prior": max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0),
+    }
+
+    def train_s() -> float:
+        return clock["prior"] + (time.perf_counter() - clock["start"] - clock["eval"])
+
     class Hooks(BaseCallback):
         def __init__(self):
             super().__init__()
@@ -295,23 +311,30 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
 
         def _evaluate(self):
             shown = {}
+            t_in = time.perf_counter()
+            ts = train_s()
             if evaluator is not None:
                 rms = evaluator(meta_now(), model, normalizer_of(venv))
-                curve.append({"timesteps": int(self.num_timesteps), "rms_contour_error_um": rms})
+                point = {"timesteps": int(self.num_timesteps), "rms_contour_error_um": rms}
+                curve.append({**point, "train_s": ts})
                 self.logger.record("eval/rms_contour_error_um", rms)
                 shown.update(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
             if validator is not None:
                 validate()
+                val_curve[-1]["train_s"] = ts
                 val = val_curve[-1]["rms_contour_error_um"]
                 if val is not None:  # None: a validation path not completed
                     self.logger.record("eval/validation_rms_contour_error_um", val)
                 shown.update(val_best_um=f"{best.rms:.3g}", val_base_um=f"{validator.base_rms:.3g}")
             if self.bar is not None:
                 self.bar.set_postfix(**shown)
+            clock["eval"] += time.perf_counter() - t_in
 
         def _on_step(self) -> bool:
             if self.bar is not None:
                 self.bar.update(self.num_timesteps - self.bar.n)
+            if cfg.time_budget_s is not None and train_s() >= cfg.time_budget_s:
+                return False  # sb3 ends learn(); the run is finished as at its last step
             if self.num_timesteps >= self.next_eval:
                 self._evaluate()
                 self.next_eval += cfg.eval_every()
@@ -355,19 +378,22 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         progress_bar=False,
     )
     wall = time.perf_counter() - t0
+    ts = train_s()
     # the final model (the last periodic evaluation may precede the last gradient steps)
     final_rms = None
     if evaluator is not None:
         final_rms = evaluator(meta_now(), model, normalizer_of(venv))
         if curve and curve[-1]["timesteps"] == model.num_timesteps:
             curve.pop()
-        curve.append({"timesteps": int(model.num_timesteps), "rms_contour_error_um": final_rms})
+        point = {"timesteps": int(model.num_timesteps), "rms_contour_error_um": final_rms}
+        curve.append({**point, "train_s": ts})
     if validator is not None and (
         not val_curve or val_curve[-1]["timesteps"] < model.num_timesteps
     ):
         # the final model, unless a periodic validation saw these timesteps (each point of the
         # curve is the score of the model kept for it)
         validate()
+        val_curve[-1]["train_s"] = ts
     write_checkpoint(
         ckpt_root, model.num_timesteps, lambda d: write_files(d, True), cfg.keep_checkpoints
     )
@@ -384,6 +410,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         "out": str(out),
         "timesteps": int(model.num_timesteps),
         "wall_s": wall,
+        "train_s": ts,
         "base_rms_contour_error_um": evaluator.base_rms if evaluator is not None else None,
         "final_rms_contour_error_um": final_rms,
         "curve": curve,

@@ -98,6 +98,7 @@ def residual_wrapper(
     action_repeat: int | None = None,
     residual_penalty: float = DEFAULT_RESIDUAL_PENALTY,
     base_kwargs: dict | None = None,
+    residual_axes: str = "path",
     **unknown,
 ) -> ResidualWrapper:
     """The zoo's ``env_wrapper`` for residual training: ``env`` (the zoo's Monitor around a
@@ -107,14 +108,15 @@ def residual_wrapper(
     (``contour-env controllers``), ``scale`` the residual authority as a fraction of the force
     limit in (0, 2], ``observation`` ``"full"`` or ``"errors"``, ``observe_base_command``,
     ``action_repeat`` (servo periods per agent action; None: one per ms),
-    ``residual_penalty`` (reward weight on ‖a_agent‖²/n, default 1.0 as ``contour-env train``)
-    and ``base_kwargs`` (the base controller's arguments, e.g. ``{W_p: 3.0e4}``). An unknown or
-    ill-typed keyword is a ``ValueError`` naming it.
+    ``residual_penalty`` (reward weight on ‖a_agent‖²/n, default 1.0 as ``contour-env
+    train``), ``base_kwargs`` (the base controller's arguments, e.g. ``{W_p: 3.0e4}``) and
+    ``residual_axes`` (``"path"``, default, or ``"all"``; see :mod:`agents.residual`). An
+    unknown or ill-typed keyword is a ``ValueError`` naming it.
     """
     if unknown:
         known = (
             "base, scale, observation, observe_base_command, action_repeat, "
-            "residual_penalty, base_kwargs"
+            "residual_penalty, base_kwargs, residual_axes"
         )
         raise ValueError(
             f"{WRAPPER_NAME}: unknown keyword(s) {', '.join(sorted(unknown))}; known: {known}"
@@ -154,6 +156,7 @@ def residual_wrapper(
             action_repeat=action_repeat,
             residual_penalty=residual_penalty,
             base_kwargs=dict(base_kwargs or {}),
+            residual_axes=residual_axes,
         )
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{WRAPPER_NAME}: {exc}") from None
@@ -319,6 +322,7 @@ class ZooRun:
             "scale": float(wrapped.scale),
             "observe_base_command": bool(wrapped.observe_base_command),
             "observation": wrapped.observation,
+            "residual_axes": wrapped.residual_axes,
             "action_repeat": int(wrapped.action_repeat),
             "servo_period_s": float(core.T),
             "cases": [self.env_kwargs["case"]] if "case" in self.env_kwargs else [],

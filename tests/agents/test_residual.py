@@ -231,3 +231,73 @@ def test_errors_observation_is_the_task_frame_errors_in_single_and_vector_wrappe
             assert info["final_obs"].shape == (2, 2 * n + extra)
             np.testing.assert_array_equal(info["final_obs"][0, : 2 * n], o1[: 2 * n])
             break
+
+
+# --- residual axes: only the axes the path uses (issue 18 item 2) ---------------------------
+
+PLANAR = "G21 G90 G17 G64 P0.01\nG01 X3 Y1 F900\nG01 X1 Y4\nG01 X0 Y0\n"  # z never moves
+SPATIAL = "G21 G90 G17 G61\nG01 X3 Y1 Z-1 F900\nG01 X1 Y4 Z0\n"
+
+
+@pytest.mark.parametrize(
+    "kwargs, expected",
+    [
+        (dict(case="lm-circle3d"), [1.0, 1.0, 1.0]),  # circle inclined 30° about x
+        (dict(plant="linear-motor", path=PLANAR), [1.0, 1.0, 0.0]),
+        (dict(plant="linear-motor", path=SPATIAL), [1.0, 1.0, 1.0]),
+        (dict(plant="friction-table", path=PLANAR), [1.0, 1.0]),
+        (dict(plant="friction-table", path="G21 G90 G61\nG01 X4 F600\n"), [1.0, 0.0]),
+    ],
+)
+def test_path_axes_mask_marks_the_axes_the_reference_moves(kwargs, expected):
+    from agents.residual import path_axes_mask
+
+    env = gym.make(ENV_ID, **kwargs)
+    env.reset(seed=0)
+    np.testing.assert_array_equal(path_axes_mask(env.unwrapped.core), expected)
+
+
+def _run_ones(w, steps=30):
+    w.reset(seed=0)
+    out = []
+    for _ in range(steps):
+        a = np.ones(w.action_space.shape, dtype=np.float32)
+        _, _, term, trunc, info = w.step(a)
+        out.append(info["residual_action"])
+        if np.any(term) or np.any(trunc):
+            break
+    return np.array(out)
+
+
+def test_no_residual_on_an_axis_the_path_does_not_use_single_and_vector():
+    w = ResidualWrapper(gym.make(ENV_ID, plant="linear-motor", path=PLANAR), "ccc")
+    assert w.residual_axes == "path"
+    res = _run_ones(w)
+    assert np.all(res[:, 2] == 0.0) and np.all(np.abs(res[:, :2]) > 0.0)
+    wa = ResidualWrapper(
+        gym.make(ENV_ID, plant="linear-motor", path=PLANAR), "ccc", residual_axes="all"
+    )
+    assert np.all(np.abs(_run_ones(wa)[:, 2]) > 0.0)
+    venv = gym.make_vec(
+        ENV_ID, num_envs=3, vectorization_mode="vector_entry_point", plant="linear-motor",
+        path=PLANAR,
+    )  # fmt: skip
+    vres = _run_ones(ResidualVectorWrapper(venv, "ccc"))
+    assert np.all(vres[:, :, 2] == 0.0) and np.all(np.abs(vres[:, :, :2]) > 0.0)
+
+
+def test_residual_axes_is_checked_and_old_agents_keep_every_axis(tmp_path):
+    with pytest.raises(ValueError, match="residual_axes: must be one of path, all"):
+        ResidualWrapper(gym.make(ENV_ID, case="sharp-corner"), "pd", residual_axes="xy")
+    from agents.rl.config import TrainConfig
+
+    old = TrainConfig(cases=("sharp-corner",)).to_dict()
+    del old["residual_axes"]  # a config.json written before the option
+    assert TrainConfig.from_dict(old).residual_axes == "all"
+    with pytest.raises(ValueError, match="residual_axes"):
+        TrainConfig(cases=("sharp-corner",), residual_axes="z")
+    from agents.residual import ResidualAgent
+    from agents.rl.models import shipped_model_for
+
+    agent = ResidualAgent(shipped_model_for("linear-motor"))
+    assert "residual_axes" not in agent.meta and agent.residual_axes == "all"

@@ -300,3 +300,56 @@ def test_errors_observation_agent_is_scored_as_it_was_trained(tmp_path, gcode):
     assert evaluate(w, _ModelPolicy(agent)) == m_agent
     with pytest.raises(ValueError, match="observation: must be one of full, errors"):
         TrainConfig(gcode=(gcode,), observation="everything", **TINY)
+
+
+def test_gradient_steps_and_train_freq_reach_sb3_and_curves_carry_training_time(tmp_path, gcode):
+    cfg = TrainConfig(
+        gcode=(gcode,), algo="sac", n_envs=2, train_freq=2, gradient_steps=3,
+        **{**TINY, "timesteps": 240, "eval_freq": 80},
+    )  # fmt: skip
+    summary = train(cfg, tmp_path / "gs", progress=False, log=lambda *a: None)
+
+    model = load_model(tmp_path / "gs" / "final" / "model.zip", "sac")
+    assert model.gradient_steps == 3 and model.train_freq.frequency == 2
+    # every curve point carries the training time without evaluations, increasing, and no
+    # more than the run's wall time
+    last = {}
+    for name in ("learning_curve.json", "validation_curve.json"):
+        pts = json.loads((tmp_path / "gs" / name).read_text())["curve"]
+        ts = [p["train_s"] for p in pts]
+        assert len(ts) >= 3 and all(b >= a for a, b in zip(ts, ts[1:], strict=False))
+        assert 0 < ts[-1] <= summary["train_s"] <= summary["wall_s"]
+        last[name] = ts[-1]
+    # the final model's point (learning curve) is scored at the end of training
+    assert summary["train_s"] == last["learning_curve.json"]
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(algo="ppo", gradient_steps=2), "off-policy"),
+        (dict(gradient_steps=0), "gradient_steps: an integer >= 1 or -1"),
+        (dict(gradient_steps=True), "gradient_steps"),
+        (dict(train_freq=0), "train_freq: expected an integer >= 1"),
+    ],
+)
+def test_update_schedule_options_are_checked(gcode, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        TrainConfig(gcode=(gcode,), **{**TINY, **kwargs})
+
+
+def test_time_budget_ends_training_before_the_timesteps(tmp_path, gcode):
+    cfg = TrainConfig(
+        gcode=(gcode,),
+        algo="sac",
+        **{**TINY, "timesteps": 1_000_000, "time_budget_s": 1.0, "eval_freq": 10**6,
+           "validation_paths": 0},
+    )  # fmt: skip
+    summary = train(cfg, tmp_path / "tb", progress=False, log=lambda *a: None)
+    assert 0 < summary["timesteps"] < 1_000_000
+    assert 1.0 <= summary["train_s"] < 30.0
+    assert (tmp_path / "tb" / "model.zip").is_file() and (tmp_path / "tb" / "final").is_dir()
+    pts = json.loads((tmp_path / "tb" / "learning_curve.json").read_text())["curve"]
+    assert pts[-1]["timesteps"] == summary["timesteps"]
+    with pytest.raises(ValueError, match="time_budget_s: a finite number of seconds > 0"):
+        TrainConfig(gcode=(gcode,), **{**TINY, "time_budget_s": 0})
