@@ -13,6 +13,7 @@ from .ilc import ILCContourController, ILCPDController
 from .jee_ccc import JeeCCCController
 from .parameters import describe_parameters, spec_kwargs, split_spec
 from .pd import PDController
+from .rfnn import FNNController, RFNNController
 from .vilcfd import VILCFDController
 
 CONTROLLERS = {
@@ -23,10 +24,24 @@ CONTROLLERS = {
     "ilc-pd": ILCPDController,
     "ilc-contour": ILCContourController,
     "vilcfd": VILCFDController,
+    "rfnn": RFNNController,
+    "fnn": FNNController,
 }
 
 # controllers that learn between trials of a repeated batch (``contour-env ilc``)
 LEARNING_CONTROLLERS = ("ilc-pd", "ilc-contour", "vilcfd")
+# controllers that learn within a trial and, with ``keep=1``, carry it to the next trial
+KEEPING_CONTROLLERS = ("rfnn", "fnn")
+
+
+def learns_between_trials(spec: str) -> bool:
+    """Whether a repeated batch of ``spec`` improves from trial to trial: a learning controller
+    (:data:`LEARNING_CONTROLLERS`), or an online learner that keeps its network across
+    episodes (``rfnn:keep=1``, ``fnn:keep=1``)."""
+    name, kwargs = parse_controller_spec(spec)
+    return name in LEARNING_CONTROLLERS or (
+        name in KEEPING_CONTROLLERS and bool(kwargs.get("keep", False))
+    )
 
 
 def controller_names() -> list[str]:
@@ -72,6 +87,8 @@ def format_controllers() -> str:
         learning = (
             "  (learning controller: contour-env ilc)" if name in LEARNING_CONTROLLERS else ""
         )
+        if name in KEEPING_CONTROLLERS:
+            learning = "  (learns online; with keep=1 across trials: contour-env ilc)"
         lines.append("")
         lines.append(f"{name}{learning}")
         lines.append(describe_parameters(name, getattr(cls, "PARAMETERS", {})))

@@ -136,9 +136,12 @@ def cmd_run(args) -> int:
     from . import ENV_ID
     from .evaluation import run_episode
     from .io import atomic_write_json
-    from .metrics import score
+    from .metrics import check_metrics, score
     from .plotting import plot_runs
 
+    metrics_asked = check_metrics(
+        tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
+    )
     kw = _target_kwargs(args)
     env = gym.make(ENV_ID, **kw)
     core = env.unwrapped.core
@@ -156,7 +159,7 @@ def cmd_run(args) -> int:
 
         policy, label = make_controller(args.controller).bind(env), args.controller
     record = run_episode(env, policy, seed=args.seed)
-    metrics = score(record)
+    metrics = score(record, metrics=metrics_asked)
     _print_metrics(label, metrics)
     result = {
         "case": setup.name,
@@ -185,6 +188,7 @@ def cmd_compare(args) -> int:
     from agents.compare import check_controllers, compare, format_table, robustness
 
     from .io import atomic_write_json
+    from .metrics import check_metrics
     from .plotting import plot_runs
 
     # rows are names or variants (ccc:wp=3e4:wd=20); each row is labelled as typed
@@ -205,8 +209,10 @@ def cmd_compare(args) -> int:
                 text = f"≤{row['encoder_resolution_um']:g} µm (below one encoder count)"
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
 
+    metrics = tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
+    check_metrics(metrics)
     _print_program_summary(kw)
-    result = compare(names, seed=args.seed, progress=show, model=args.model, **kw)
+    result = compare(names, seed=args.seed, progress=show, model=args.model, metrics=metrics, **kw)
     robust = None
     if args.randomize is not None:
         from tqdm import tqdm
@@ -266,7 +272,7 @@ def cmd_ilc(args) -> int:
     import gymnasium as gym
 
     from agents import make_controller
-    from agents.registry import LEARNING_CONTROLLERS, spec_name
+    from agents.registry import KEEPING_CONTROLLERS, LEARNING_CONTROLLERS, learns_between_trials
     from agents.repeated_batch import run_batch
 
     from . import ENV_ID
@@ -274,10 +280,17 @@ def cmd_ilc(args) -> int:
     from .metrics import format_um, resolution_fields
     from .plotting import plot_learning
 
-    if spec_name(args.controller) not in LEARNING_CONTROLLERS:
+    if not learns_between_trials(args.controller):
         raise ValueError(
             f"--controller: {args.controller!r} does not learn between trials; learning "
-            f"controllers: {', '.join(LEARNING_CONTROLLERS)}"
+            f"controllers: {', '.join(LEARNING_CONTROLLERS)}, or "
+            f"{' / '.join(f'{n}:keep=1' for n in KEEPING_CONTROLLERS)} (the network kept "
+            "across trials)"
+        )
+    if (args.save or args.load) and not hasattr(make_controller(args.controller), "save"):
+        raise ValueError(
+            f"--save/--load: {args.controller!r} has no saved learning state (it keeps its "
+            "network within one run of contour-env ilc)"
         )
     if args.iterations < 1:
         raise ValueError(f"--iterations: must be >= 1, got {args.iterations}")
@@ -432,6 +445,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(pd, ccc:wp=3e4; see `contour-env controllers`); default: zero command",
     )
     p.add_argument("--json", help="write the metrics as JSON to this file")
+    p.add_argument(
+        "--metrics",
+        default=None,
+        help="extra metrics, comma-separated: total (Chen & Lee 2020's total contour error "
+        "Σ|ε|, µm)",
+    )
     p.add_argument("--plot", help="write a plot (PNG) to this file")
     p.set_defaults(func=cmd_run)
     p = sub.add_parser("compare", help="controllers side by side (Lee 2012 Tables 2, 3)")
@@ -451,6 +470,12 @@ def build_parser() -> argparse.ArgumentParser:
         "agent for the plant (contour-env models)",
     )
     p.add_argument("--json", help="write the results as JSON to this file")
+    p.add_argument(
+        "--metrics",
+        default=None,
+        help="extra metrics, comma-separated: total (Chen & Lee 2020's total contour error "
+        "Σ|ε|, printed in mm, total_contour_error_um in the JSON)",
+    )
     p.add_argument(
         "--plot",
         help="write a PNG: the path with each controller's contour error magnified, contour "

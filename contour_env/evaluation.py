@@ -26,7 +26,7 @@ def run_episode(
     """Run ``env`` from ``reset(seed=seed)`` to the end with ``policy``; return the record.
 
     A classical controller with a compiled form (``pd``, ``ccc``, ``adaptive-ccc``,
-    ``jee-ccc``) on an unwrapped, non-rendering env runs as one compiled loop
+    ``jee-ccc``, ``rfnn``, ``fnn``) on an unwrapped, non-rendering env runs as one compiled loop
     (:mod:`contour_env.env.rollout`), with the same record to the bit; ``compiled=False`` (or
     ``CONTOUR_ENV_COMPILED=0``) forces the Python loop, ``None`` (default) takes the compiled
     one where it applies."""

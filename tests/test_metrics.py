@@ -40,6 +40,23 @@ def test_score_matches_hand_computation():
     assert m["n_steps"] == 4 and m["completed"] is True
 
 
+def test_total_contour_error_of_chen_and_lee_by_hand():
+    """Chen & Lee 2020's total contour error (§4.2, Tables 1–2): Σ_k |ε_k|, µm, only when a run
+    asks for it; over the cutting steps where the record has rapids."""
+    eps = [1e-6, -3e-6, 2.5e-6, 0.0, 4e-6]
+    te = np.zeros((5, 2))
+    force = np.zeros((5, 2))
+    record = _record(eps, te, force)
+    assert "total_contour_error_um" not in score(record)
+    m = score(record, metrics=("total",))
+    assert m["total_contour_error_um"] == pytest.approx(1.0 + 3.0 + 2.5 + 0.0 + 4.0)
+    assert score(record, metrics="total") == m
+    record.rapid = np.array([False, True, False, False, True])
+    assert score(record, metrics=("total",))["total_contour_error_um"] == pytest.approx(3.5)
+    with pytest.raises(ValueError, match="metrics: unknown metric 'sum'; known: total"):
+        score(record, metrics=("sum",))
+
+
 def test_diverged_samples_are_none_not_nan():
     m = score(
         _record([1e-6, np.inf], [[0, 0], [np.nan, 0]], [[0, 0], [0, 0]], reason="non_finite_state")

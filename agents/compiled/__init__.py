@@ -1,7 +1,7 @@
 """Compiled (numba) forms of the classical controllers' per-step laws and the fused episode
 loops that run them with the env kernel (``contour_env.evaluation.run_episode`` takes this
-path for ``pd``, ``ccc``, ``adaptive-ccc`` and ``jee-ccc``; ``compiled=False`` or
-``CONTOUR_ENV_COMPILED=0`` keeps the Python ``act``).
+path for ``pd``, ``ccc``, ``adaptive-ccc``, ``jee-ccc``, ``rfnn`` and ``fnn``;
+``compiled=False`` or ``CONTOUR_ENV_COMPILED=0`` keeps the Python ``act``).
 
 The loops inline the env kernel, whose sources numba's cache does not track: on import, the
 caches of this package are deleted when any of those sources (or the laws) changed, as

@@ -1,4 +1,5 @@
-"""Gains and state of the classical controllers as the arrays of :mod:`agents.compiled.laws`.
+"""Gains and state of the classical controllers and rfnn / fnn as the arrays of
+:mod:`agents.compiled.laws`.
 
 :func:`compiled_form` packs a bound controller (exact classes only: a subclass may change the
 law) into a :class:`CompiledForm`; :meth:`CompiledForm.store` writes the state the compiled run
@@ -127,11 +128,48 @@ def _jee_store(c, st) -> None:
     c._started[:] = st[:, 2 * A] != 0.0
 
 
+def _rfnn_fp(c) -> np.ndarray:
+    from ..rfnn import INPUT_LIMIT, THETA_LIMIT
+
+    return _f(
+        c.P,
+        c.D,
+        c.alpha,
+        c.inv_input_scale,
+        INPUT_LIMIT,
+        THETA_LIMIT,
+        c.w_max,
+        c.k_w,
+        c.k_theta,
+        float(c.online_update),
+        float(c.recurrent),
+        c.n_rules,
+        c.centres.reshape(-1),
+        c.inv_sigma2.reshape(-1),
+    )
+
+
+def _rfnn_st(c) -> np.ndarray:
+    B, R = c.n_envs, c.n_rules
+    scratch = np.zeros((B, 5 * R + c.n_axes))  # O, u − m, ψ, y of the current sample
+    return np.concatenate(
+        [c.w.reshape(B, -1), c.theta.reshape(B, -1), c.memory.reshape(B, -1), scratch], axis=1
+    )
+
+
+def _rfnn_store(c, st) -> None:
+    B, A, R = c.n_envs, c.n_axes, c.n_rules
+    c.w[:] = st[:, : A * R].reshape(B, A, R)
+    c.theta[:] = st[:, A * R : 3 * A * R].reshape(B, A, 2, R)
+    c.memory[:] = st[:, 3 * A * R : 5 * A * R].reshape(B, A, 2, R)
+
+
 _STORE = {
     L.KIND_PD: lambda c, st: None,
     L.KIND_CCC: _ccc_store,
     L.KIND_ADAPTIVE_CCC: _adaptive_store,
     L.KIND_JEE_CCC: _jee_store,
+    L.KIND_RFNN: _rfnn_store,
 }
 
 
@@ -139,12 +177,13 @@ _PATCHABLE = ("act", "command", "action", "predict", "reset", "configure")
 
 
 def compiled_form(controller) -> CompiledForm | None:
-    """The compiled form of a bound ``pd``, ``ccc``, ``adaptive-ccc`` or ``jee-ccc`` (exact
-    classes), or None for any other policy."""
+    """The compiled form of a bound ``pd``, ``ccc``, ``adaptive-ccc``, ``jee-ccc``, ``rfnn`` or
+    ``fnn`` (exact classes), or None for any other policy."""
     from ..adaptive_ccc import AdaptiveCCCController
     from ..ccc import CCCController
     from ..jee_ccc import JeeCCCController
     from ..pd import PDController
+    from ..rfnn import FNNController, RFNNController
 
     cls = type(controller)
     if getattr(controller, "_core", None) is None:
@@ -166,6 +205,8 @@ def compiled_form(controller) -> CompiledForm | None:
             _f(controller.K_P, controller.C_P, controller.C_I, controller.C_D),
             _jee_st(controller),
         )
+    elif cls is RFNNController or cls is FNNController:
+        kind, fp, st = L.KIND_RFNN, _rfnn_fp(controller), _rfnn_st(controller)
     else:
         return None
     return CompiledForm(

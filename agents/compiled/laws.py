@@ -1,4 +1,4 @@
-"""The per-step laws of pd, ccc, adaptive-ccc and jee-ccc as numba functions.
+"""The per-step laws of pd, ccc, adaptive-ccc, jee-ccc and rfnn / fnn as numba functions.
 
 Each law reads what the Python ``act`` reads (the servo signals of env ``b`` at reference index
 ``kk``: measured position/velocity from the env's ``ax`` rows, the reference position,
@@ -14,17 +14,22 @@ one. The Python ``act`` stays the readable reference; change both together.
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from contour_env.env.kernel import AX_MEAS, AX_VEL
 
-KIND_PD, KIND_CCC, KIND_ADAPTIVE_CCC, KIND_JEE_CCC = 1, 2, 3, 4
+KIND_PD, KIND_CCC, KIND_ADAPTIVE_CCC, KIND_JEE_CCC, KIND_RFNN = 1, 2, 3, 4, 5
 
 # --- CCC: fp = [P (A), D (A), W_p, W_i, W_d, mass (A), limit, cos(CORNER_TURN_RAD)];
 # st = [prev (2), J (A), started, tangent (A), corner (A), bisector (A), holding]
 # --- adaptive-ccc: fp = [k, alpha, coupling, kv_rho (A each), any_kv, ncol, friction,
 # normalize, velocity_match, any_gamma, mean_squares (ncol), Gamma (ncol·A)]; st = θ̂ (ncol·A)
 # --- jee-ccc: fp = [K_P (A), C_P, C_I, C_D]; st = [sum (A), prev (A), started]
+# --- rfnn / fnn: fp = [P (A), D (A), alpha, 1/scale_e, 1/scale_s, input_limit, theta_limit,
+# w_max, k_w, k_theta, learn, recurrent, R, centres (2 R), 1/σ² (2 R)]; st = [w (A R), θ (A 2 R),
+# memory O(k−1) (A 2 R), then scratch: O (2 R), u − m (2 R), ψ (R), y (A)]
 
 
 @njit(cache=True, inline="always")
@@ -254,6 +259,90 @@ def _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
 
 
 @njit(cache=True, inline="always")
+def _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
+    # agents.rfnn.RFNNController.act, operation for operation (exp: libm's, as math.exp)
+    _pd(A, b, kk, T, ax, ref_pav, fp, u)
+    o = 2 * A
+    alpha = fp[o]
+    inv_scale_e = fp[o + 1]
+    inv_scale_s = fp[o + 2]
+    lim = fp[o + 3]
+    th_lim = fp[o + 4]
+    w_max = fp[o + 5]
+    k_w = fp[o + 6]
+    k_th = fp[o + 7]
+    learn = fp[o + 8] != 0.0
+    recurrent = fp[o + 9] != 0.0
+    R = int(fp[o + 10])
+    o_m = o + 11
+    o_is2 = o_m + 2 * R
+    s_w = 0
+    s_th = A * R
+    s_mem = 3 * A * R
+    s_o2 = 5 * A * R
+    s_d = s_o2 + 2 * R
+    s_psi = s_d + 2 * R
+    s_y = s_psi + R
+    for p in range(A):
+        se = frame[kk, 0, p] * (ref_pav[kk, 0, 0] - ax[AX_MEAS, b, 0])
+        sd = frame[kk, 0, p] * (ref_pav[kk, 1, 0] - ax[AX_VEL, b, 0])
+        for i in range(1, A):
+            se = se + frame[kk, i, p] * (ref_pav[kk, 0, i] - ax[AX_MEAS, b, i])
+            sd = sd + frame[kk, i, p] * (ref_pav[kk, 1, i] - ax[AX_VEL, b, i])
+        e = -se
+        s = -sd + alpha * e
+        x0 = _clip(e * inv_scale_e, -lim, lim)
+        x1 = _clip(s * inv_scale_s, -lim, lim)
+        S = 0.0
+        for j in range(R):
+            q0 = (p * 2) * R + j  # θ, memory of input 0 (e) and input 1 (s) of rule j
+            q1 = q0 + R
+            d0 = (x0 + st[b, s_mem + q0] * st[b, s_th + q0]) - fp[o_m + j]
+            d1 = (x1 + st[b, s_mem + q1] * st[b, s_th + q1]) - fp[o_m + R + j]
+            o0 = math.exp(-(d0 * d0 * fp[o_is2 + j]))
+            o1 = math.exp(-(d1 * d1 * fp[o_is2 + R + j]))
+            st[b, s_d + j] = d0
+            st[b, s_d + R + j] = d1
+            st[b, s_o2 + j] = o0
+            st[b, s_o2 + R + j] = o1
+            o3 = o0 * o1
+            st[b, s_psi + j] = o3
+            S = o3 if j == 0 else S + o3
+        inv_S = 1.0 / S
+        y = 0.0
+        for j in range(R):
+            psi = st[b, s_psi + j] * inv_S
+            st[b, s_psi + j] = psi
+            wy = st[b, s_w + p * R + j] * psi
+            y = wy if j == 0 else y + wy
+        learn_theta = learn and recurrent and k_th > 0.0
+        ge = k_th * e
+        gw = k_w * e
+        for j in range(R):
+            q0 = (p * 2) * R + j
+            q1 = q0 + R
+            psi = st[b, s_psi + j]
+            if learn_theta:
+                a = psi * (st[b, s_w + p * R + j] - y)
+                g0 = -a * (2.0 * st[b, s_d + j] * st[b, s_mem + q0] * fp[o_is2 + j])
+                g1 = -a * (2.0 * st[b, s_d + R + j] * st[b, s_mem + q1] * fp[o_is2 + R + j])
+                st[b, s_th + q0] = _clip(st[b, s_th + q0] - ge * g0, -th_lim, th_lim)
+                st[b, s_th + q1] = _clip(st[b, s_th + q1] - ge * g1, -th_lim, th_lim)
+            if learn:
+                q = p * R + j
+                st[b, s_w + q] = _clip(st[b, s_w + q] - gw * psi, -w_max, w_max)
+            if recurrent:
+                st[b, s_mem + q0] = st[b, s_o2 + j]
+                st[b, s_mem + q1] = st[b, s_o2 + R + j]
+        st[b, s_y + p] = y
+    for i in range(A):
+        c = frame[kk, i, 0] * st[b, s_y]
+        for p in range(1, A):
+            c = c + frame[kk, i, p] * st[b, s_y + p]
+        u[i] = u[i] + c
+
+
+@njit(cache=True, inline="always")
 def law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work):
     """The command u (A,) of env b (plant units) from its signals at reference index kk;
     advances the controller state st[b]. ``work``: scratch, ≥ 4 A + 2 A² floats."""
@@ -264,5 +353,7 @@ def law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work):
         _ccc(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E)
     elif kind == KIND_ADAPTIVE_CCC:
         _adaptive(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E, work[A:])
+    elif kind == KIND_RFNN:
+        _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E)
     else:
         _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E)
