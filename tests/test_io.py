@@ -95,8 +95,8 @@ def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path, umask):
 def test_checkpoint_directories_and_trainer_files_get_the_umask_mode(tmp_path, umask):
     """agents.rl: checkpoints were mkdtemp directories (0700) renamed into place, and
     model.zip / vecnormalize.pkl were written into mkstemp files (0600)."""
+    from agents.rl import trainer
     from agents.rl.checkpoint import write_checkpoint
-    from agents.rl.trainer import _atomic_save
 
     umask(0o022)
     folder = write_checkpoint(
@@ -107,5 +107,8 @@ def test_checkpoint_directories_and_trainer_files_get_the_umask_mode(tmp_path, u
     )
     assert _mode(folder) == 0o755
     assert all(_mode(p) == 0o644 for p in folder.iterdir())
-    _atomic_save(tmp_path, "model.zip", lambda p: Path(p).write_bytes(b"PK"))
+    # the trainer writes model.zip / vecnormalize.pkl (final/ and the kept model) through
+    # contour_env.io.atomic_save
+    assert trainer.atomic_save is atomic_save
+    trainer.atomic_save(tmp_path / "model.zip", lambda p: Path(p).write_bytes(b"PK"))
     assert _mode(tmp_path / "model.zip") == 0o644
