@@ -7,13 +7,16 @@ One call advances a batch of n-axis feed drives by one servo period T:
   first-order-hold predictor–corrector (second order) over the period;
 - near a velocity reversal (or while stuck) the period is split into substeps with a
   stick–slip treatment: the mass sticks when the non-friction force it feels is within the
-  static friction (no chattering, no energy gain); it breaks away when it exceeds it.
+  static friction (no chattering, no energy gain); it breaks away when it exceeds it. The
+  smooth stretches of such a period (holding, sliding without reversal) are crossed in chunks
+  of substeps and the event found by bisection to the substep (see CHUNK_SIZES).
 
 Packed per-(env, axis) arrays (built by :class:`contour_env.plants.model.Plant`):
 
 - ``mat_T``: (P, A, ns, ns + 3) = [Phi | Gu | Ga | Gb] over T;
 - ``mat_h``: (P · N_SUB_LEVELS, A, ns, ns + 3), the same over the substep lengths
-  T / n_sub, T / 2, T / 3, T / 4 (row p · N_SUB_LEVELS + level, see SUB_LEVEL_DIVISORS);
+  T / n_sub, T / 2, T / 3, T / 4 and the chunks 2, 4, … 32 × T / n_sub (row
+  p · N_SUB_LEVELS + level, see SUB_LEVEL_DIVISORS, CHUNK_SIZES and sub_level_lengths);
 - ``cont``: (P, A, ns + 2) = row 1 of the continuous A, then B_u[1], B_w[1];
 - ``nl``: (P, A, NL_SIZE) nonlinear parameters, indices below;
 
@@ -53,12 +56,28 @@ NL_SIZE = 14
 # largest deviation of friction from its first-order hold over one period (fraction of the
 # static friction) for which the whole-period step is kept in the Stribeck region
 FOH_FRICTION_TOL = 1e-3
-# substep lengths T / d with discretised matrices (level 0: the plant's friction_substeps, the
-# fine substeps of velocity reversals, sticking and break-away). A period in the Stribeck band
-# whose first-order-hold deviation is q · FOH_FRICTION_TOL with q <= d² is split into d equal
-# substeps instead of the fine ones: the deviation falls with the square of the step.
+# substep lengths with discretised matrices. Levels 0–3: T / d for d in SUB_LEVEL_DIVISORS
+# (level 0: the plant's friction_substeps, the fine substeps h = T / n_sub of velocity
+# reversals, sticking and break-away). A period in the Stribeck band whose first-order-hold
+# deviation is q · FOH_FRICTION_TOL with q <= d² is split into d equal substeps instead of the
+# fine ones: the deviation falls with the square of the step.
 SUB_LEVEL_DIVISORS = (0, 2, 3, 4)
-N_SUB_LEVELS = 4
+# Levels 4…: chunks of c fine substeps (c · h) for c in CHUNK_SIZES. Inside a period that
+# needs the fine grid, the stretches before and after an event (break-away, sticking, a
+# reversal) are smooth: they are crossed in chunks, accepted under the same tests as a whole
+# period (no sign change, first-order-hold deviation within FOH_FRICTION_TOL; while stuck, the
+# non-friction force within f_s at both ends), and the event itself is found by bisection
+# down to the fine substep, where the fine treatment is unchanged.
+CHUNK_SIZES = (2, 4, 8, 16, 32)
+CHUNK_LEVEL0 = len(SUB_LEVEL_DIVISORS)  # level of a chunk of 2 substeps; c = 2^k → level k + 3
+MAX_CHUNK = CHUNK_SIZES[-1]
+N_SUB_LEVELS = len(SUB_LEVEL_DIVISORS) + len(CHUNK_SIZES)
+
+
+def sub_level_lengths(T: float, n_sub: int) -> list[float]:
+    """Substep length (s) of every level of ``mat_h``, in level order."""
+    fixed = [T / (d if d else n_sub) for d in SUB_LEVEL_DIVISORS]
+    return fixed + [c * T / n_sub for c in CHUNK_SIZES]
 
 
 @njit(cache=True, inline="always")
@@ -230,6 +249,155 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
     )
 
 
+@njit(cache=True, inline="always")
+def _chunk_level(c):
+    # level of mat_h for a chunk of c = 2^k fine substeps (k >= 1)
+    level = CHUNK_LEVEL0 - 1
+    while c > 1:
+        c >>= 1
+        level += 1
+    return level
+
+
+@njit(cache=True, inline="always")
+def _pow2_floor(n):
+    # largest power of two <= n (n >= 1), at most MAX_CHUNK
+    c = 1
+    while c * 2 <= n and c < MAX_CHUNK:
+        c *= 2
+    return c
+
+
+@njit(cache=True, inline="always")
+def _hold_whole_period(Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns):
+    # held by static friction over the whole period if the non-friction force stays within
+    # f_s at both ends of the period (the usual case at rest: no substeps needed)
+    wnf = -(external_force(Z[zr, 0], t0, nl, p, i) - w_extra)
+    f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
+    if abs(f_nf) > fs:
+        return False
+    _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+    S[s, 0] = Z[zr, 0]
+    S[s, 1] = 0.0
+    wnf1 = -(external_force(Z[zr, 0], t0 + T, nl, p, i) - w_extra)
+    if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) > fs:
+        return False
+    _copy_row(S, s, Z, zr, ns)
+    return True
+
+
+@njit(cache=True, inline="always")
+def _hold(Z, zr, u, wnf, f_nf, t_end, c, mat_h, ph, cont, nl, p, i, S, s, w_extra, fs, ns):
+    # held over c substeps from a state within f_s: the load's acceleration cancelled (the
+    # rest of the state, e.g. a motor behind a compliant screw, moves on). A chunk (c > 1) is
+    # accepted only if the non-friction force is within f_s at its end as well; a fine substep
+    # on the check at its start, as always. Returns whether the hold was taken.
+    x_hold = Z[zr, 0]
+    _advance(Z, zr, S, s, mat_h, ph, i, u, wnf - f_nf, wnf - f_nf, ns)
+    S[s, 0] = x_hold
+    S[s, 1] = 0.0
+    if c > 1:
+        wnf1 = -(external_force(x_hold, t_end, nl, p, i) - w_extra)
+        if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) > fs:
+            return False
+    _copy_row(S, s, Z, zr, ns)
+    return True
+
+
+@njit(cache=True, inline="always")
+def _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns):
+    # one fine substep from rest in the direction of the net force, friction starting at f_s;
+    # returns the new stuck flag (1.0 if the mass stopped again within the substep)
+    fc = nl[p, i, NL_FC]
+    fs = nl[p, i, NL_FS]
+    vs = nl[p, i, NL_VS]
+    direction = 1.0 if f_nf > 0.0 else -1.0
+    w0 = wnf - direction * fs
+    _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
+    v1 = S[s, 1]
+    if v1 * direction > 0.0:
+        w1 = -(
+            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
+        )
+        _add_gb(S, s, mat_h, ph, i, w1 - w0, ns)
+    _copy_row(S, s, Z, zr, ns)
+    if Z[zr, 1] * direction <= 0.0:
+        Z[zr, 1] = 0.0
+        return 1.0
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns):
+    # a chunk of sliding substeps in one first-order-hold predictor–corrector step, accepted
+    # under the whole period's tests (axis_step): no sign change, friction within
+    # FOH_FRICTION_TOL · f_s of its first-order hold. Returns whether it was taken.
+    fc = nl[p, i, NL_FC]
+    fs = nl[p, i, NL_FS]
+    vs = nl[p, i, NL_VS]
+    v0 = Z[zr, 1]
+    f0 = friction_force(v0, fc, fs, vs)
+    w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+    _advance(Z, zr, S, s, mat_h, pc, i, u, w0, w0, ns)
+    v1 = S[s, 1]
+    if v0 * v1 <= 0.0:
+        return False
+    w1 = -(friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t + hc, nl, p, i) - w_extra))
+    _add_gb(S, s, mat_h, pc, i, w1 - w0, ns)
+    v2 = S[s, 1]
+    if v0 * v2 <= 0.0:
+        return False
+    accept = abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs
+    for _ in range(0 if accept else 1):
+        f_mid = friction_force(0.5 * (v0 + v2), fc, fs, vs)
+        f_ends = 0.5 * (f0 + friction_force(v2, fc, fs, vs))
+        accept = abs(f_mid - f_ends) <= FOH_FRICTION_TOL * fs
+    if accept:
+        _copy_row(S, s, Z, zr, ns)
+    return accept
+
+
+@njit(cache=True, inline="always")
+def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns):
+    # one fine sliding substep; a velocity reversal inside it is located by interpolation and
+    # the mass sticks there if the non-friction force is within f_s, or slips through with
+    # friction's time average. Returns (stuck flag, whether a reversal happened).
+    fc = nl[p, i, NL_FC]
+    fs = nl[p, i, NL_FS]
+    vs = nl[p, i, NL_VS]
+    v0 = Z[zr, 1]
+    f0 = friction_force(v0, fc, fs, vs)
+    w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+    _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
+    v1 = S[s, 1]
+    if v0 * v1 > 0.0:
+        w1 = -(
+            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
+        )
+        _add_gb(S, s, mat_h, ph, i, w1 - w0, ns)
+        v1 = S[s, 1]
+    if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
+        _copy_row(S, s, Z, zr, ns)
+        return 0.0, False
+    s2 = s + 1
+    alpha = v0 / (v0 - v1)
+    for r in range(ns):
+        S[s2, r] = Z[zr, r] + alpha * (S[s, r] - Z[zr, r])
+    S[s2, 1] = 0.0
+    wnf = -(external_force(S[s2, 0], t + alpha * h, nl, p, i) - w_extra)
+    f_nf = _nonfriction_force(S, s2, u, wnf, cont, p, i, ns)
+    if abs(f_nf) <= fs:
+        _copy_row(S, s2, Z, zr, ns)
+        return 1.0, True
+    # slips through: friction reverses at the crossing; its time average over the substep
+    f_after = fs if f_nf > 0.0 else -fs
+    f_avg = alpha * f0 + (1.0 - alpha) * f_after
+    w = -(f_avg + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+    _advance(Z, zr, S, s, mat_h, ph, i, u, w, w, ns)
+    _copy_row(S, s, Z, zr, ns)
+    return 0.0, True
+
+
 @njit(cache=True, error_model="numpy")
 def _axis_step_slow(
     Z, zr, stuck, u, t0, T, n_sub, level, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
@@ -237,100 +405,78 @@ def _axis_step_slow(
     # Stuck, breaking away, near a velocity reversal, or in the Stribeck band: n_sub substeps
     # of T / n_sub with the matrices of substep level ``level`` (row p · N_SUB_LEVELS + level of
     # mat_h). Kept out of line so the common moving case stays small where it is inlined.
-    # Row s of S is the trial state, row s + 1 the state interpolated at a reversal.
+    # Rows s and s + 1 of S are work space.
+    #
+    # On the fine grid (level 0) the smooth stretches are crossed in chunks of c substeps (see
+    # CHUNK_SIZES): an event is suspected before substep ``hi`` (at first n_sub: the whole
+    # period failed), a chunk is tried over half of [j, hi), a failed chunk moves ``hi`` to its
+    # end (bisection), and a fine substep that meets the event (break-away, sticking, reversal)
+    # clears the suspicion, after which the rest of the period is tried in the largest chunks.
     ns = Z.shape[1]
-    ph = p * N_SUB_LEVELS + level
-    s2 = s + 1
-    fc = nl[p, i, NL_FC]
+    p0 = p * N_SUB_LEVELS
+    ph = p0 + level
     fs = nl[p, i, NL_FS]
-    vs = nl[p, i, NL_VS]
-    v0 = Z[zr, 1]
-    if stuck == 0.0 and v0 == 0.0 and fs > 0.0:
+    if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
         stuck = 1.0
-    if stuck != 0.0:
-        # held by static friction over the whole period if the non-friction force stays within
-        # f_s at both ends of the period (the usual case at rest: no substeps needed)
-        wnf = -(external_force(Z[zr, 0], t0, nl, p, i) - w_extra)
-        f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
-        if abs(f_nf) <= fs:
-            _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
-            S[s, 0] = Z[zr, 0]
-            S[s, 1] = 0.0
-            wnf1 = -(external_force(Z[zr, 0], t0 + T, nl, p, i) - w_extra)
-            if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) <= fs:
-                for r in range(ns):
-                    Z[zr, r] = S[s, r]
-                return 1.0
+    if stuck != 0.0 and _hold_whole_period(
+        Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns
+    ):
+        return 1.0
     h = T / n_sub
-    for j in range(n_sub):
+    hi = n_sub
+    suspect = True
+    j = 0
+    while j < n_sub:
         t = t0 + j * h
+        if suspect and j >= hi:
+            suspect, hi = False, n_sub
+        c = 1
+        if level == 0:
+            c = _pow2_floor((hi - j) // 2 if suspect else n_sub - j)
+        pc = ph if c == 1 else p0 + _chunk_level(c)
         if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
             stuck = 1.0
         if stuck != 0.0:
             wnf = -(external_force(Z[zr, 0], t, nl, p, i) - w_extra)
             f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
             if abs(f_nf) <= fs:
-                x_hold = Z[zr, 0]
-                _advance(Z, zr, S, s, mat_h, ph, i, u, wnf - f_nf, wnf - f_nf, ns)
-                for r in range(ns):
-                    Z[zr, r] = S[s, r]
-                Z[zr, 0] = x_hold
-                Z[zr, 1] = 0.0
+                if _hold(
+                    Z,
+                    zr,
+                    u,
+                    wnf,
+                    f_nf,
+                    t + c * h,
+                    c,
+                    mat_h,
+                    pc,
+                    cont,
+                    nl,
+                    p,
+                    i,
+                    S,
+                    s,
+                    w_extra,
+                    fs,
+                    ns,
+                ):
+                    j += c
+                else:
+                    suspect, hi = True, j + c
                 continue
-            # break away in the direction of the net force; friction starts at f_s
-            stuck = 0.0
-            direction = 1.0 if f_nf > 0.0 else -1.0
-            w0 = wnf - direction * fs
-            _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
-            v1 = S[s, 1]
-            if v1 * direction > 0.0:
-                w1 = -(
-                    friction_force(v1, fc, fs, vs)
-                    + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
-                )
-                _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w1, ns)
-            for r in range(ns):
-                Z[zr, r] = S[s, r]
-            if Z[zr, 1] * direction <= 0.0:
-                Z[zr, 1] = 0.0
-                stuck = 1.0
-            continue
-        v0 = Z[zr, 1]
-        f0 = friction_force(v0, fc, fs, vs)
-        w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
-        _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
-        v1 = S[s, 1]
-        if v0 * v1 > 0.0:
-            w1 = -(
-                friction_force(v1, fc, fs, vs)
-                + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
-            )
-            _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w1, ns)
-            v1 = S[s, 1]
-        if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
-            for r in range(ns):
-                Z[zr, r] = S[s, r]
-            continue
-        # velocity reversal inside the substep: locate it by interpolation, test for sticking
-        alpha = v0 / (v0 - v1)
-        for r in range(ns):
-            S[s2, r] = Z[zr, r] + alpha * (S[s, r] - Z[zr, r])
-        S[s2, 1] = 0.0
-        t_c = t + alpha * h
-        wnf = -(external_force(S[s2, 0], t_c, nl, p, i) - w_extra)
-        f_nf = _nonfriction_force(S, s2, u, wnf, cont, p, i, ns)
-        if abs(f_nf) <= fs:
-            for r in range(ns):
-                Z[zr, r] = S[s2, r]
-            stuck = 1.0
-            continue
-        # slips through: friction reverses at t_c; use its time average over the substep
-        f_after = fs if f_nf > 0.0 else -fs
-        f_avg = alpha * f0 + (1.0 - alpha) * f_after
-        w = -(f_avg + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
-        _advance(Z, zr, S, s, mat_h, ph, i, u, w, w, ns)
-        for r in range(ns):
-            Z[zr, r] = S[s, r]
+            stuck = _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns)
+            suspect, hi = False, n_sub
+            j += 1
+        elif c > 1:
+            if _slide_chunk(Z, zr, u, t, c * h, mat_h, pc, nl, p, i, S, s, w_extra, ns):
+                j += c
+            else:
+                suspect, hi = True, j + c
+        else:
+            stuck, event = _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns)
+            if event:
+                suspect, hi = False, n_sub
+            j += 1
     return stuck
 
 

@@ -26,8 +26,8 @@ from .kernel import (
     NL_SIZE,
     NL_VS,
     NL_WD,
-    SUB_LEVEL_DIVISORS,
     plant_step_batch,
+    sub_level_lengths,
 )
 from .kernel import NL_AR as _NL_AR
 from .params import PlantParams
@@ -99,8 +99,8 @@ def pack_params(params_list: list[PlantParams]) -> PackedPlant:
     for q, p in enumerate(distinct):
         A, Bu, Bw = continuous_model(p)
         steps = [(mat_T, q, T)] + [
-            (mat_h, q * N_SUB_LEVELS + level, T / (d if d else n_sub))
-            for level, d in enumerate(SUB_LEVEL_DIVISORS)
+            (mat_h, q * N_SUB_LEVELS + level, h)
+            for level, h in enumerate(sub_level_lengths(T, n_sub))
         ]
         for out, row, h in steps:
             Phi, Gu, Ga, Gb = discretize(A, Bu, Bw, h)

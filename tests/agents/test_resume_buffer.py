@@ -18,6 +18,8 @@ TINY = dict(
     eval_freq=150,
     checkpoint_freq=150,
     net_arch=(16, 16),
+    # no keep-best validation episodes: this test is about the replay buffer
+    validation_paths=0,
 )
 
 
