@@ -5,7 +5,9 @@ Each controller runs once to load (or compile) the fused loop, then ``--repeats`
 alternation on the same env (so that a busy machine slows every controller alike); the
 minimum and the median of each are reported, and their ratio to PD. The law alone (the
 compiled per-step law called in a loop on the case's reference, without the plant) is timed
-too: it is less sensitive to what else the machine runs::
+too: it is less sensitive to what else the machine runs. So is the CPU time of the episode
+(``time.thread_time``: the time the thread ran, not the time it waited for a core), reported
+next to the wall-time ratios as ``cpu min/pd`` and ``cpu med/pd``::
 
     python scripts/rfnn_speed.py [--repeats 15] [--json out/rfnn_speed.json]
 """
@@ -69,18 +71,23 @@ def measure(repeats: int, specs=SPECS) -> dict:
     for c in controllers.values():  # load / compile the loop
         run_episode(env, c)
     times: dict[str, list[float]] = {s: [] for s in specs}
+    cpu: dict[str, list[float]] = {s: [] for s in specs}
     for _ in range(repeats):
         for s, c in controllers.items():
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.thread_time()
             run_episode(env, c)
             times[s].append(time.perf_counter() - t0)
+            cpu[s].append(time.thread_time() - c0)
     pd_min, pd_med = min(times["pd"]), statistics.median(times["pd"])
+    pd_cpu_min, pd_cpu_med = min(cpu["pd"]), statistics.median(cpu["pd"])
     rows = {
         s: {
             "min_s": min(t),
             "median_s": statistics.median(t),
             "min_ratio_to_pd": min(t) / pd_min,
             "median_ratio_to_pd": statistics.median(t) / pd_med,
+            "cpu_min_ratio_to_pd": min(cpu[s]) / pd_cpu_min,
+            "cpu_median_ratio_to_pd": statistics.median(cpu[s]) / pd_cpu_med,
             "us_per_step_min": min(t) / n_steps * 1e6,
             "law_alone_us_per_step": law_us_per_step(env, s, n_steps),
         }
@@ -98,13 +105,14 @@ def main() -> None:
     print(f"{result['case']}: {result['n_steps']} steps, {result['repeats']} runs each")
     print(
         f"{'controller':12s}{'min s':>9s}{'median s':>10s}{'min/pd':>8s}{'med/pd':>8s}"
-        f"{'µs/step':>9s}{'law µs':>8s}"
+        f"{'µs/step':>9s}{'law µs':>8s}{'cpu min/pd':>12s}{'cpu med/pd':>12s}"
     )
     for s, r in result["controllers"].items():
         print(
             f"{s:12s}{r['min_s']:9.3f}{r['median_s']:10.3f}{r['min_ratio_to_pd']:8.2f}"
             f"{r['median_ratio_to_pd']:8.2f}{r['us_per_step_min']:9.3f}"
-            f"{r['law_alone_us_per_step']:8.3f}"
+            f"{r['law_alone_us_per_step']:8.3f}{r['cpu_min_ratio_to_pd']:12.2f}"
+            f"{r['cpu_median_ratio_to_pd']:12.2f}"
         )
     if args.json:
         atomic_write_json(args.json, result)

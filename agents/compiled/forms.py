@@ -144,6 +144,7 @@ def _rfnn_fp(c) -> np.ndarray:
         float(c.online_update),
         float(c.recurrent),
         c.n_rules,
+        float(c.online_update and c.recurrent and c.k_theta > 0.0),  # θ learns
         c.centres.reshape(-1),
         c.inv_sigma2.reshape(-1),
     )
@@ -151,7 +152,7 @@ def _rfnn_fp(c) -> np.ndarray:
 
 def _rfnn_st(c) -> np.ndarray:
     B, R = c.n_envs, c.n_rules
-    scratch = np.zeros((B, 5 * R + c.n_axes))  # O, u − m, ψ, y of the current sample
+    scratch = np.zeros((B, 3 * R + c.n_axes))  # 2 (u − m) O(k−1) / σ², ψ, y of the sample
     return np.concatenate(
         [c.w.reshape(B, -1), c.theta.reshape(B, -1), c.memory.reshape(B, -1), scratch], axis=1
     )

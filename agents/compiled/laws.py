@@ -28,8 +28,8 @@ KIND_PD, KIND_CCC, KIND_ADAPTIVE_CCC, KIND_JEE_CCC, KIND_RFNN = 1, 2, 3, 4, 5
 # normalize, velocity_match, any_gamma, mean_squares (ncol), Gamma (ncol·A)]; st = θ̂ (ncol·A)
 # --- jee-ccc: fp = [K_P (A), C_P, C_I, C_D]; st = [sum (A), prev (A), started]
 # --- rfnn / fnn: fp = [P (A), D (A), alpha, 1/scale_e, 1/scale_s, input_limit, theta_limit,
-# w_max, k_w, k_theta, learn, recurrent, R, centres (2 R), 1/σ² (2 R)]; st = [w (A R), θ (A 2 R),
-# memory O(k−1) (A 2 R), then scratch: O (2 R), u − m (2 R), ψ (R), y (A)]
+# w_max, k_w, k_theta, learn, recurrent, R, learn_theta, centres (2 R), 1/σ² (2 R)]; st = [w (A R),
+# θ (A 2 R), memory O(k−1) (A 2 R), then scratch: 2 (u − m) O(k−1) / σ² (2 R), ψ (R), y (A)]
 
 
 @njit(cache=True, inline="always")
@@ -259,9 +259,11 @@ def _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
 
 
 @njit(cache=True, inline="always")
-def _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
-    # agents.rfnn.RFNNController.act, operation for operation (exp: libm's, as math.exp)
-    _pd(A, b, kk, T, ax, ref_pav, fp, u)
+def _rfnn_n(A, R, b, kk, ax, ref_pav, frame, fp, st, u):
+    # agents.rfnn.RFNNController.act, operation for operation (exp: libm's, as math.exp), for
+    # A axes and R rules; called with literal A and R where it can be, so that the compiler
+    # unrolls the loops over the rules and directions
+    r = st[b]
     o = 2 * A
     alpha = fp[o]
     inv_scale_e = fp[o + 1]
@@ -273,15 +275,13 @@ def _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
     k_th = fp[o + 7]
     learn = fp[o + 8] != 0.0
     recurrent = fp[o + 9] != 0.0
-    R = int(fp[o + 10])
-    o_m = o + 11
+    learn_theta = fp[o + 11] != 0.0  # learn and recurrent and k_θ > 0
+    o_m = o + 12
     o_is2 = o_m + 2 * R
-    s_w = 0
     s_th = A * R
     s_mem = 3 * A * R
-    s_o2 = 5 * A * R
-    s_d = s_o2 + 2 * R
-    s_psi = s_d + 2 * R
+    s_t = 5 * A * R  # scratch: 2 (u − m) O(k−1) / σ² (2 R), ψ (R), y (A)
+    s_psi = s_t + 2 * R
     s_y = s_psi + R
     for p in range(A):
         se = frame[kk, 0, p] * (ref_pav[kk, 0, 0] - ax[AX_MEAS, b, 0])
@@ -293,53 +293,72 @@ def _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
         s = -sd + alpha * e
         x0 = _clip(e * inv_scale_e, -lim, lim)
         x1 = _clip(s * inv_scale_s, -lim, lim)
+        q_w = p * R
+        q_th = s_th + 2 * p * R  # θ, memory of input 0 (e) and input 1 (s) of rule j
+        q_mem = s_mem + 2 * p * R
         S = 0.0
         for j in range(R):
-            q0 = (p * 2) * R + j  # θ, memory of input 0 (e) and input 1 (s) of rule j
-            q1 = q0 + R
-            d0 = (x0 + st[b, s_mem + q0] * st[b, s_th + q0]) - fp[o_m + j]
-            d1 = (x1 + st[b, s_mem + q1] * st[b, s_th + q1]) - fp[o_m + R + j]
-            o0 = math.exp(-(d0 * d0 * fp[o_is2 + j]))
-            o1 = math.exp(-(d1 * d1 * fp[o_is2 + R + j]))
-            st[b, s_d + j] = d0
-            st[b, s_d + R + j] = d1
-            st[b, s_o2 + j] = o0
-            st[b, s_o2 + R + j] = o1
+            m0 = r[q_mem + j]
+            m1 = r[q_mem + R + j]
+            is0 = fp[o_is2 + j]
+            is1 = fp[o_is2 + R + j]
+            d0 = (x0 + m0 * r[q_th + j]) - fp[o_m + j]
+            d1 = (x1 + m1 * r[q_th + R + j]) - fp[o_m + R + j]
+            o0 = math.exp(-(d0 * d0 * is0))
+            o1 = math.exp(-(d1 * d1 * is1))
+            # the θ gradient's factor needs O(k−1): taken before the memory is overwritten
+            r[s_t + j] = 2.0 * d0 * m0 * is0
+            r[s_t + R + j] = 2.0 * d1 * m1 * is1
+            if recurrent:
+                r[q_mem + j] = o0
+                r[q_mem + R + j] = o1
             o3 = o0 * o1
-            st[b, s_psi + j] = o3
+            r[s_psi + j] = o3
             S = o3 if j == 0 else S + o3
         inv_S = 1.0 / S
         y = 0.0
         for j in range(R):
-            psi = st[b, s_psi + j] * inv_S
-            st[b, s_psi + j] = psi
-            wy = st[b, s_w + p * R + j] * psi
+            psi = r[s_psi + j] * inv_S
+            r[s_psi + j] = psi
+            wy = r[q_w + j] * psi
             y = wy if j == 0 else y + wy
-        learn_theta = learn and recurrent and k_th > 0.0
-        ge = k_th * e
-        gw = k_w * e
-        for j in range(R):
-            q0 = (p * 2) * R + j
-            q1 = q0 + R
-            psi = st[b, s_psi + j]
-            if learn_theta:
-                a = psi * (st[b, s_w + p * R + j] - y)
-                g0 = -a * (2.0 * st[b, s_d + j] * st[b, s_mem + q0] * fp[o_is2 + j])
-                g1 = -a * (2.0 * st[b, s_d + R + j] * st[b, s_mem + q1] * fp[o_is2 + R + j])
-                st[b, s_th + q0] = _clip(st[b, s_th + q0] - ge * g0, -th_lim, th_lim)
-                st[b, s_th + q1] = _clip(st[b, s_th + q1] - ge * g1, -th_lim, th_lim)
-            if learn:
-                q = p * R + j
-                st[b, s_w + q] = _clip(st[b, s_w + q] - gw * psi, -w_max, w_max)
-            if recurrent:
-                st[b, s_mem + q0] = st[b, s_o2 + j]
-                st[b, s_mem + q1] = st[b, s_o2 + R + j]
-        st[b, s_y + p] = y
+        if learn:
+            ge = k_th * e
+            gw = k_w * e
+            for j in range(R):
+                psi = r[s_psi + j]
+                w = r[q_w + j]
+                if learn_theta:
+                    a = psi * (w - y)
+                    g0 = -a * r[s_t + j]
+                    g1 = -a * r[s_t + R + j]
+                    r[q_th + j] = _clip(r[q_th + j] - ge * g0, -th_lim, th_lim)
+                    r[q_th + R + j] = _clip(r[q_th + R + j] - ge * g1, -th_lim, th_lim)
+                r[q_w + j] = _clip(w - gw * psi, -w_max, w_max)
+        r[s_y + p] = y
     for i in range(A):
-        c = frame[kk, i, 0] * st[b, s_y]
+        c = frame[kk, i, 0] * r[s_y]
         for p in range(1, A):
-            c = c + frame[kk, i, p] * st[b, s_y + p]
+            c = c + frame[kk, i, p] * r[s_y + p]
         u[i] = u[i] + c
+
+
+@njit(cache=True, inline="always")
+def _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u):
+    _pd(A, b, kk, T, ax, ref_pav, fp, u)
+    R = int(fp[2 * A + 10])
+    # literal sizes for the usual configurations (the compiler unrolls their loops), else the
+    # loops over run-time sizes
+    if A == 3 and R == 4:
+        _rfnn_n(3, 4, b, kk, ax, ref_pav, frame, fp, st, u)
+    elif A == 2 and R == 4:
+        _rfnn_n(2, 4, b, kk, ax, ref_pav, frame, fp, st, u)
+    elif A == 3 and R == 9:
+        _rfnn_n(3, 9, b, kk, ax, ref_pav, frame, fp, st, u)
+    elif A == 2 and R == 9:
+        _rfnn_n(2, 9, b, kk, ax, ref_pav, frame, fp, st, u)
+    else:
+        _rfnn_n(A, R, b, kk, ax, ref_pav, frame, fp, st, u)
 
 
 @njit(cache=True, inline="always")
@@ -354,6 +373,6 @@ def law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work):
     elif kind == KIND_ADAPTIVE_CCC:
         _adaptive(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E, work[A:])
     elif kind == KIND_RFNN:
-        _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E)
+        _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u)
     else:
         _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E)

@@ -231,6 +231,13 @@ def _assert_same(fast, py):
         ("rfnn:theta0=0.5:lr_theta=0.005", dict(case="sharp-corner")),
         ("rfnn:rules=9", dict(case="hsm2-circle-II")),
         ("fnn", dict(case="jee-circle3d")),
+        # every size the compiled law specialises on (2 or 3 axes × 4 or 9 rules) and its
+        # loops over run-time sizes (any other rule count)
+        ("rfnn:rules=9", dict(case="jee-circle3d")),
+        ("fnn:rules=9", dict(case="sharp-corner")),
+        ("rfnn:rules=1", dict(case="sharp-corner")),
+        ("rfnn:rules=16", dict(case="jee-circle3d")),
+        ("fnn:rules=16", dict(case="hsm2-circle-II")),
     ],
 )
 def test_compiled_law_matches_the_python_reference(spec, env_kwargs):
