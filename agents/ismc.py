@@ -1,0 +1,174 @@
+"""Five-axis contouring laws of Chen, Khong & Hsieh (2022): the equivalent-error integral
+sliding mode controller (eqs. 6–12) and the joint-space PD it is compared with (Table 2).
+
+Both are plain classes: ``command(q, qd, k)`` takes the measured joints ξ (5,), rates ξ̇
+(5,) (m, rad; m/s, rad/s) and the reference sample index k, and returns the joint command
+u (5,) in (N, N, N, N·m, N·m). They use the nominal dynamics ξ̈ = f + G u (eq. 5) of
+:func:`contour_env.plants.five_axis.dynamics.drift_and_gain`. The policy-protocol wrapper
+(observation → action) is separate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from contour_env.paths.five_axis import FiveAxisPath
+from contour_env.plants.five_axis.dynamics import drift_and_gain, gravity
+
+__all__ = ["PAPER_ISMC_GAINS", "PAPER_PD_GAINS", "EquivalentErrorISMC", "JointPD"]
+
+# Chen 2022, Table 2 (simulation cases 1–4): PD (Kp, Kd) and ISMC (b1, b2, ρ, μ) per path
+PAPER_PD_GAINS = {
+    "five-axis-line": (800.0, 60.0),
+    "five-axis-circle": (800.0, 310.0),
+}
+PAPER_ISMC_GAINS = {
+    "five-axis-line": (57.0, 800.0, 50.0, 0.05),
+    "five-axis-circle": (283.0, 800.0, 150.0, 0.8),
+}
+# Tangential-error regulariser v₀ (m/s) as a share of the path's peak feed: the paper's
+# e = ξ̇_dᵀ (ξ − ξ_d) has a zero row in Γ where ξ̇_d = 0 (the start and end of the S-curve);
+# w = dξ_d/ds (ṡ + v₀) keeps it invertible (FiveAxisPath docstring). 1 % of the peak feed
+# changes the weight of e by at most a few per cent while moving.
+DEFAULT_TANGENT_FLOOR_SHARE = 0.01
+
+
+def _positive(name: str, value) -> float:
+    v = float(value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
+    return v
+
+
+def _require_algebraic(path) -> FiveAxisPath:
+    if not isinstance(path, FiveAxisPath):
+        raise ValueError(
+            "ismc: the equivalent-error controller needs an algebraic path (a FiveAxisPath "
+            "with path functions p(ξ) = 0, e.g. contour_env.paths.five_axis.five_axis_path); "
+            f"got {type(path).__name__} (a path given only as G-code or samples has none)"
+        )
+    return path
+
+
+class EquivalentErrorISMC:
+    """Feedback linearisation plus integral sliding mode on the equivalent errors (Chen 2022).
+
+    With η = (ε₁…ε₄, e) (eq. 6) and η̈ = Ω + Γ u (eq. 7, :meth:`FiveAxisPath.error_dynamics`
+    on the nominal f, G of eq. 5), the command is (eqs. 8–12)
+
+        u = Γ⁻¹ (−Ω − b₁ η̇ − b₂ η − ρ tanh(σ / μ)),   σ = η̇ + b₁ η + b₂ ∫η dt
+
+    so that σ̇ = −ρ tanh(σ/μ) on the model and, on σ = 0, η̈ + b₁ η̇ + b₂ η = 0.
+
+    Parameters
+    ----------
+    path : FiveAxisPath
+        The algebraic path (a G-code-only path raises ValueError: no local fit is made).
+    inertia : FiveAxisInertia
+        The nominal rigid-body model (``FiveAxisPlant(...).nominal.inertia``).
+    b1 (1/s), b2 (1/s²), rho (ρ, units of η̈), mu (μ, units of σ) : float > 0
+        Default: the paper's Table 2 gains for ``path.name`` (line: 57, 800, 50, 0.05;
+        circle: 283, 800, 150, 0.8).
+    tangent_floor_m_s : float >= 0, optional
+        v₀ of the tangential error's weight w = dξ_d/ds (ṡ + v₀); 0 is the paper's
+        w = ξ̇_d. Default 1 % of the path's peak feed.
+
+    State: ``integral`` (5,) = ∫η dt, by the rectangle rule at the servo period (updated with
+    η_k before σ_k is formed); reset() zeroes it.
+    """
+
+    def __init__(self, path, inertia, b1=None, b2=None, rho=None, mu=None, tangent_floor_m_s=None):
+        self.path = _require_algebraic(path)
+        self.inertia = inertia
+        paper = PAPER_ISMC_GAINS.get(path.name)
+        given = (b1, b2, rho, mu)
+        if paper is None and any(g is None for g in given):
+            raise ValueError(f"ismc: no paper gains for path {path.name!r}; pass b1, b2, rho, mu")
+        b1, b2, rho, mu = (
+            p if g is None else g for g, p in zip(given, paper or given, strict=True)
+        )
+        self.b1, self.b2 = _positive("b1", b1), _positive("b2", b2)
+        self.rho, self.mu = _positive("rho", rho), _positive("mu", mu)
+        if tangent_floor_m_s is None:
+            peak = max(sec.peak_feed for sec in path.profile.sections)
+            tangent_floor_m_s = DEFAULT_TANGENT_FLOOR_SHARE * peak
+        v0 = float(tangent_floor_m_s)
+        if not (math.isfinite(v0) and v0 >= 0):
+            raise ValueError(f"tangent_floor_m_s: must be a finite number >= 0, got {v0!r}")
+        self.tangent_floor_m_s = v0
+        self.dt = path.reference.servo_period_s
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero the integral state ∫η dt."""
+        self.integral = np.zeros(5)
+
+    def command(self, q, qd, k: int) -> np.ndarray:
+        """Joint command u (5,) at joints q, rates qd (5,) and reference sample k."""
+        q = np.asarray(q, dtype=np.float64)
+        qd = np.asarray(qd, dtype=np.float64)
+        v0 = self.tangent_floor_m_s
+        eta, eta_dot = self.path.equivalent_errors(q, qd, k, v0)
+        self.integral = self.integral + self.dt * eta
+        sigma = eta_dot + self.b1 * eta + self.b2 * self.integral
+        drift, gain = drift_and_gain(q, qd, self.inertia)
+        omega, gamma = self.path.error_dynamics(q, qd, k, drift, gain, v0)
+        v = -self.b1 * eta_dot - self.b2 * eta - self.rho * np.tanh(sigma / self.mu)
+        try:
+            return np.linalg.solve(gamma, v - omega)
+        except np.linalg.LinAlgError:
+            raise ValueError(
+                f"ismc: Γ of eq. 7 is singular at sample {k} (ξ̇_d = 0 at rest with "
+                "tangent_floor_m_s = 0, or the path functions lose rank); use "
+                "tangent_floor_m_s > 0"
+            ) from None
+
+
+class JointPD:
+    """Joint-space PD on e = ξ_d − ξ (the paper's comparison law, Table 2: Kp = 800,
+    Kd = 60 on the line, 310 on the circle).
+
+    The paper gives the gains without units; as printed they are the acceleration-level
+    gains of the same linearised loop the ISMC uses (its b₂ is 800 too): on our NXV560A-class
+    model (slides of 450–1100 kg) Kp = 800 N/m would leave the spindle head sagging metres.
+    So by default (``inverse_dynamics=True``) the law is computed through the nominal model,
+
+        u = G⁻¹ (Kp e + Kd ė − f)       (ë + Kd ė + Kp e = ξ̈_d on the model)
+
+    without acceleration feed-forward (with it the nominal loop would track exactly).
+    ``inverse_dynamics=False`` gives the plain law u = Kp e + Kd ė + g(ξ) with Kp in N/m
+    (N·m/rad), Kd in N·s/m (N·m·s/rad). Kp, Kd scalar or per joint (5,), ≥ 0; default from
+    ``PAPER_PD_GAINS`` for ``path.name``. Stateless (reset() does nothing).
+    """
+
+    def __init__(self, path, inertia, kp=None, kd=None, inverse_dynamics: bool = True):
+        self.path = path
+        self.inertia = inertia
+        paper = PAPER_PD_GAINS.get(getattr(path, "name", None))
+        if paper is None and (kp is None or kd is None):
+            raise ValueError(f"pd: no paper gains for path {path!r}; pass kp and kd")
+        kp = paper[0] if kp is None else kp
+        kd = paper[1] if kd is None else kd
+        self.kp = np.broadcast_to(np.asarray(kp, dtype=np.float64), (5,)).copy()
+        self.kd = np.broadcast_to(np.asarray(kd, dtype=np.float64), (5,)).copy()
+        for name, g in (("kp", self.kp), ("kd", self.kd)):
+            if not np.all(np.isfinite(g) & (g >= 0)):
+                raise ValueError(f"{name}: must be finite and >= 0, got {g.tolist()}")
+        self.inverse_dynamics = bool(inverse_dynamics)
+
+    def reset(self) -> None:
+        """Nothing to reset (no state)."""
+
+    def command(self, q, qd, k: int) -> np.ndarray:
+        """Joint command u (5,) at joints q, rates qd (5,) and reference sample k."""
+        ref = self.path.reference
+        k = min(max(int(k), 0), ref.n_steps - 1)
+        q = np.asarray(q, dtype=np.float64)
+        qd = np.asarray(qd, dtype=np.float64)
+        acc = self.kp * (ref.joints[k] - q) + self.kd * (ref.joint_rate[k] - qd)
+        if not self.inverse_dynamics:
+            return acc + gravity(q, self.inertia)
+        drift, gain = drift_and_gain(q, qd, self.inertia)
+        return np.linalg.solve(gain, acc - drift)
