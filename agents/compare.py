@@ -7,12 +7,13 @@ import gymnasium as gym
 import numpy as np
 
 from contour_env import ENV_ID
+from contour_env.env.five_axis_rollout import is_five_axis_env, run_five_axis_episode
 from contour_env.evaluation import run_episode
 from contour_env.metrics import check_metrics, format_um, score
 from contour_env.plants.randomize import randomized
 
 from .parameters import split_spec
-from .registry import CONTROLLERS, make_controller
+from .registry import CONTROLLERS, FIVE_AXIS_CONTROLLERS, make_controller
 
 CVAR_FRACTION = 0.10
 # the row name of a trained residual agent (``model``: a model DIR, or the shipped agent)
@@ -21,9 +22,9 @@ RESIDUAL = "residual"
 
 def comparable_names() -> list[str]:
     """Names ``compare`` accepts: every fixed controller of the registry and ``residual``."""
-    from .registry import controller_names
+    from .registry import all_controller_names
 
-    return [*controller_names(), RESIDUAL]
+    return [*all_controller_names(), RESIDUAL]
 
 
 def check_controllers(specs: list[str]) -> None:
@@ -41,7 +42,7 @@ def check_controllers(specs: list[str]) -> None:
                     "--model DIR / model=)"
                 )
             continue
-        if name not in CONTROLLERS:
+        if name not in CONTROLLERS and name not in FIVE_AXIS_CONTROLLERS:
             raise ValueError(
                 f"controllers: unknown controller {name!r}; known: {', '.join(comparable_names())}"
             )
@@ -55,7 +56,10 @@ def bound_controller(name: str, env, model=None):
     when the agent was trained for another plant or number of axes)."""
     check_controllers([name])
     if name != RESIDUAL:
-        return make_controller(name).bind(env)
+        from .base import _core_of
+
+        family = getattr(_core_of(env)[1].setup, "family", None)
+        return make_controller(name, plant_family=family).bind(env)
     from .base import _core_of
     from .residual import ResidualAgent
     from .rl.models import shipped_model_for
@@ -103,7 +107,10 @@ def compare(
         bound.append((name, env, bound_controller(name, env, model)))
     for name, env, controller in bound:
         setup = env.unwrapped.setup
-        record = run_episode(env, controller, seed=seed)
+        if is_five_axis_env(env):  # the record gains the tool's orientation error
+            record = run_five_axis_episode(env, controller, seed=seed)
+        else:
+            record = run_episode(env, controller, seed=seed)
         m = score(record, metrics=metrics)
         row = {"controller": name, "stable": record.completed, **m}
         results.append(row)
@@ -297,7 +304,11 @@ def format_table(comparison: dict, robust: list[dict] | None = None) -> str:
     below one encoder count prints as ``≤R (enc)`` (R the coarsest axis's count, µm)."""
     rows = comparison["results"]
     ref = _reference_row(rows)
-    ref_rms = ref.get("rms_contour_error_um") if ref is not None and ref["stable"] else None
+    ref_rms = (
+        ref.get("rms_contour_error_um")
+        if ref is not None and (ref["stable"] or ref.get("termination_reason") is None)
+        else None
+    )
     ref_name = "pd" if ref is None else ref["controller"]
     ref_label = "RMS/PD" if ref_name == "pd" else f"RMS/{ref_name}"
     names = [r["controller"] for r in rows] + [r["controller"] for r in robust or []]
@@ -305,13 +316,20 @@ def format_table(comparison: dict, robust: list[dict] | None = None) -> str:
     rw = max(10, len(ref_label) + 2)
     # Chen & Lee 2020's total contour error, in their unit (mm), where the run asked for it
     total = any("total_contour_error_um" in r for r in rows)
+    # five-axis runs: ε is the tool-tip contour error, and the orientation error θ follows
+    orient = any("rms_orientation_error_arcsec" in r for r in rows)
+    head_o = f"{'max θ ″':>11s}{'RMS θ ″':>11s}" if orient else ""
     lines = [
         f"case {comparison['case']} (plant {comparison['plant']})",
         f"{'controller':{w}s}{'max ε µm':>12s}{'RMS ε µm':>12s}{ref_label:>{rw}s}"
-        f"{'total ε mm' if total else '':>{14 if total else 0}s}{'  RMS effort per axis':s}",
+        f"{'total ε mm' if total else '':>{14 if total else 0}s}{head_o}"
+        f"{'  RMS effort per axis':s}",
     ]
     for r in rows:
-        if not r["stable"]:
+        # a run that was not stopped but did not follow the program (e.g. it ended more than
+        # 1 mm from the end point) keeps its figures, flagged; a stopped one has none
+        incomplete = not r["stable"] and r.get("termination_reason") is None
+        if not r["stable"] and not (incomplete and r.get("rms_contour_error_um") is not None):
             lines.append(
                 f"{r['controller']:{w}s}  UNSTABLE ({r['termination_reason']} after "
                 f"{r['n_steps']} steps)"
@@ -325,9 +343,19 @@ def format_table(comparison: dict, robust: list[dict] | None = None) -> str:
         if total:
             t = r.get("total_contour_error_um")
             tot = f"{t * 1e-3:14.4g}" if t is not None else f"{'n/a':>14s}"
+        ori = ""
+        if orient:
+            ori = "".join(
+                f"{v:11.2f}" if v is not None else f"{'n/a':>11s}"
+                for v in (
+                    r.get("max_orientation_error_arcsec"),
+                    r.get("rms_orientation_error_arcsec"),
+                )
+            )
         lines.append(
             f"{r['controller']:{w}s}{format_um(r['max_contour_error_um'], res, '.1f'):>12s}"
-            f"{format_um(rms, res, '.2f'):>12s}{ratio:>{rw}s}{tot}  [{effort}]"
+            f"{format_um(rms, res, '.2f'):>12s}{ratio:>{rw}s}{tot}{ori}  [{effort}]"
+            + (f"  (incomplete: {r.get('incomplete_reason')})" if incomplete else "")
         )
     if robust:
         lines.append("")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from .adaptive_ccc import AdaptiveCCCController
 from .ccc import CCCController
+from .five_axis_controllers import FiveAxisPDController, ISMCController
 from .ilc import ILCContourController, ILCPDController
 from .jee_ccc import JeeCCCController
 from .parameters import describe_parameters, spec_kwargs, split_spec
@@ -27,6 +28,12 @@ CONTROLLERS = {
     "rfnn": RFNNController,
     "fnn": FNNController,
 }
+
+# the five-axis plant's controllers (Chen 2022), a family of their own: ``pd`` there is the
+# paper's joint PD (``make_controller(name, plant_family="five-axis")``); ``ismc`` exists
+# only there (``make_controller("ismc")`` builds it; binding it to a feed-drive env is an
+# error). Kept apart from CONTROLLERS, whose every entry runs on every feed-drive plant.
+FIVE_AXIS_CONTROLLERS = {"pd": FiveAxisPDController, "ismc": ISMCController}
 
 # controllers that learn between trials of a repeated batch (``contour-env ilc``)
 LEARNING_CONTROLLERS = ("ilc-pd", "ilc-contour", "vilcfd")
@@ -61,20 +68,27 @@ def parse_controller_spec(spec: str) -> tuple[str, dict]:
     parameter (the message lists the controller's parameters with their descriptions) or a
     malformed one (``ccc:``, ``ccc:wp``, ``ccc:wp=abc``, ``ccc:wp=nan``)."""
     name, pairs = split_spec(spec)
-    if name not in CONTROLLERS:
+    cls = _class_of(name)
+    return name, spec_kwargs(spec, cls, pairs)
+
+
+def all_controller_names() -> list[str]:
+    """Every controller name: the feed-drive ones, then those only on the five-axis plant."""
+    return [*CONTROLLERS, *(n for n in FIVE_AXIS_CONTROLLERS if n not in CONTROLLERS)]
+
+
+def _class_of(name: str):
+    cls = CONTROLLERS.get(name, FIVE_AXIS_CONTROLLERS.get(name))
+    if cls is None:
         raise ValueError(
-            f"controller: unknown controller {name!r}; known: {', '.join(CONTROLLERS)}"
+            f"controller: unknown controller {name!r}; known: {', '.join(all_controller_names())}"
         )
-    return name, spec_kwargs(spec, CONTROLLERS[name], pairs)
+    return cls
 
 
 def controller_parameters(name: str) -> dict:
     """The ``PARAMETERS`` table of a controller name: short name → :class:`Param`."""
-    if name not in CONTROLLERS:
-        raise ValueError(
-            f"controller: unknown controller {name!r}; known: {', '.join(CONTROLLERS)}"
-        )
-    return dict(getattr(CONTROLLERS[name], "PARAMETERS", {}))
+    return dict(getattr(_class_of(name), "PARAMETERS", {}))
 
 
 def format_controllers() -> str:
@@ -92,21 +106,43 @@ def format_controllers() -> str:
         lines.append("")
         lines.append(f"{name}{learning}")
         lines.append(describe_parameters(name, getattr(cls, "PARAMETERS", {})))
+    for name, cls in FIVE_AXIS_CONTROLLERS.items():
+        lines.append("")
+        lines.append(f"{name}  (five-axis plant: {cls.summary})")
+        lines.append(describe_parameters(name, getattr(cls, "PARAMETERS", {})))
     return "\n".join(lines)
 
 
-def make_controller(name: str, **kwargs):
+def make_controller(name: str, *, plant_family: str | None = None, **kwargs):
     """A controller by name or variant spec (unbound; call ``.bind(env)``).
 
     ``make_controller("ccc:wp=3e4:wd=20")`` and ``make_controller("ccc", W_p=3e4, W_d=20)``
-    are the same controller; a keyword given both ways is a ``ValueError``."""
+    are the same controller; a keyword given both ways is a ``ValueError``.
+    ``plant_family="five-axis"``: the five-axis class of the name
+    (:data:`FIVE_AXIS_CONTROLLERS`: ``pd`` is then Chen 2022's joint PD); a name with none is
+    a ``ValueError``."""
+    if plant_family == "five-axis":
+        base, _ = split_spec(name)
+        if base not in FIVE_AXIS_CONTROLLERS:
+            raise ValueError(
+                f"controller {base!r}: not available on the five-axis plant; known there: "
+                f"{', '.join(FIVE_AXIS_CONTROLLERS)}"
+            )
+        cls = FIVE_AXIS_CONTROLLERS[base]
+        spec_kw = spec_kwargs(name, cls, split_spec(name)[1])
+        both = sorted(set(spec_kw) & set(kwargs))
+        if both:
+            raise ValueError(
+                f"controller {name!r}: {', '.join(both)} given both in the spec and as a keyword"
+            )
+        return cls(**spec_kw, **kwargs)
     base, spec_kw = parse_controller_spec(name)
     both = sorted(set(spec_kw) & set(kwargs))
     if both:
         raise ValueError(
             f"controller {name!r}: {', '.join(both)} given both in the spec and as a keyword"
         )
-    cls = CONTROLLERS[base]
+    cls = _class_of(base)
     if not spec_kw:
         return cls(**kwargs)
     try:

@@ -20,7 +20,7 @@ import numpy as np
 from . import DEFAULT_CASE
 from .paths import FeedProfile, PathGeometry, ReferenceTrajectory, circle, polyline
 from .paths.gcode import parse_gcode, read_gcode
-from .plants import Plant
+from .plants import FIVE_AXIS_PLANT_ALIASES, Plant
 from .plants.catalog import PLANT_ALIASES, nominal_params
 
 GCODE_SUFFIXES = (".nc", ".gcode", ".ngc", ".tap")
@@ -51,6 +51,11 @@ class CaseSpec:
 
 
 CASES: dict[str, CaseSpec] = {}
+# the five-axis machine's cases (Chen 2022), a plant family of their own: kept apart from the
+# feed-drive cases above, whose every case runs the per-axis controllers (pd's compiled form,
+# ccc, ...) and has the feed-drive plant's facts; get_case / build_setup / `contour-env cases`
+# know both tables
+FIVE_AXIS_CASES: dict[str, CaseSpec] = {}
 
 
 def _build_path(desc: dict) -> PathGeometry:
@@ -109,6 +114,8 @@ def case_facts(spec: CaseSpec) -> dict:
     in % of the nominal mass); the plant adds ``mass_mismatch`` (the realistic true/nominal
     mass factors) and ``mode_hz`` (the two-mass mode frequencies).
     """
+    if spec.path["kind"] == "five-axis":
+        return _five_axis_facts(spec)
     params, effects = nominal_params(spec.plant)
     T = float(params.servo_period_s)
     desc = spec.path
@@ -220,8 +227,24 @@ def case_facts(spec: CaseSpec) -> dict:
     return facts
 
 
-def _add(spec: CaseSpec) -> None:
-    CASES[spec.name] = replace(spec, notes=spec.notes.format(**case_facts(spec)))
+def _five_axis_facts(spec: CaseSpec) -> dict:
+    """The numbers a five-axis case's notes quote (Chen 2022 §4), from the path module's
+    own constants: ``length_mm`` (tip path), ``duration_s`` (motion), ``feed_mm_s`` (peak
+    tip feed of the S-curve), ``settle``."""
+    from .paths.five_axis import PAPER_DURATION_S
+
+    return {
+        "length_mm": _num(round(spec.path["length_m"] * 1e3, 1)),
+        "duration_s": _num(PAPER_DURATION_S),
+        "feed_mm_s": _num(round(spec.feedrate_m_s * 1e3, 1)),
+        "settle": _num(spec.settle_time_s),
+        "abort_mm": _num(spec.env_config.get("abort_contour_error_m", 5e-3) * 1e3),
+    }
+
+
+def _add(spec: CaseSpec, table: dict | None = None) -> None:
+    table = CASES if table is None else table
+    table[spec.name] = replace(spec, notes=spec.notes.format(**case_facts(spec)))
 
 
 _HSM2_NOTES = (
@@ -386,14 +409,93 @@ _add(
 )
 
 
+# the five-axis cases' contour guard on ε + L·θ (m): 8× PD's peak on the realistic plant
+FIVE_AXIS_ABORT_CONTOUR_M = 0.02
+
+
+def _add_five_axis_cases() -> None:
+    """Chen, Khong & Hsieh 2022 §4: the line and the inclined circle on the five-axis plant
+    (paths, tool towards X_c and the S-curve: :mod:`contour_env.paths.five_axis`)."""
+    from .paths.five_axis import (
+        _CIRCLE,
+        _LINE,
+        DEFAULT_RAMP_FRACTION,
+        PAPER_DURATION_S,
+        _ramp_limits,
+    )
+
+    line_m = float(np.linalg.norm(np.subtract(_LINE["end"], _LINE["start"])))
+    circle_m = 2 * math.pi * _CIRCLE["radius"]
+    for name, length, what, pub in (
+        (
+            "five-axis-line",
+            line_m,
+            "line X1 = (0.08, 0.03, 0.02) → X2 = (0.01, 0.05, 0.07) m ({length_mm} mm), tool "
+            "towards X_c = (0, −0.05, −0.5) m",
+            "RMS tool-tip contour error / orientation error: PD 330.7 µm / 145.3″, "
+            "ISMC 2.9 µm / 4.8″",
+        ),
+        (
+            "five-axis-circle",
+            circle_m,
+            "circle r = 0.1 m in the 45° plane y = z ({length_mm} mm: ε₁ = x² + 2y² − r², "
+            "ε₂ = y − z), tool towards X_c = (0, 0.8, −0.8) m",
+            "RMS tool-tip contour error / orientation error: PD 668.4 µm / 649.5″, "
+            "ISMC 17.9 µm / 2.8″",
+        ),
+    ):
+        feed, accel, jerk = _ramp_limits(length, PAPER_DURATION_S, DEFAULT_RAMP_FRACTION)
+        _add(
+            CaseSpec(
+                name=name,
+                plant="five-axis",
+                path=dict(kind="five-axis", name=name, length_m=length),
+                feedrate_m_s=feed,
+                max_accel_m_s2=accel,
+                max_jerk_m_s3=jerk,
+                settle_time_s=0.0,
+                notes=(
+                    f"Chen, Khong & Hsieh 2022 §4 on the NXV560A-class A–C table machine "
+                    f"(plant five-axis, docs/FIVE_AXIS.md): {what}; the tip runs a cosine "
+                    "S-curve over {duration_s} s (ramps a third of the time each, our choice: "
+                    "the paper says only S-type), peak {feed_mm_s} mm/s, sampled at 1 ms; "
+                    "settle {settle} s. Errors: the tool-tip contour error (distance to the tip "
+                    "path) and the orientation error (angle to the reference tool vector); the "
+                    "env's contour guard is on ε + L·θ (L = 0.15 m, contour_env.env."
+                    "five_axis_core) at {abort_mm} mm, so joint PD on the realistic plant (peak "
+                    "about 2.4 mm) keeps a wide margin and standing still costs the guard "
+                    "penalty P per step."
+                ),
+                published=pub,
+                env_config=dict(abort_contour_error_m=FIVE_AXIS_ABORT_CONTOUR_M),
+            ),
+            FIVE_AXIS_CASES,
+        )
+
+
+_add_five_axis_cases()
+
+
 def case_names() -> list[str]:
+    """The feed-drive cases (:data:`CASES`)."""
     return list(CASES)
 
 
+def five_axis_case_names() -> list[str]:
+    """The five-axis machine's cases (:data:`FIVE_AXIS_CASES`)."""
+    return list(FIVE_AXIS_CASES)
+
+
+def all_case_names() -> list[str]:
+    """Every named case: the feed-drive ones, then the five-axis ones."""
+    return [*CASES, *FIVE_AXIS_CASES]
+
+
 def get_case(name: str) -> CaseSpec:
-    if name not in CASES:
-        raise ValueError(f"case: unknown case {name!r}; known cases: {', '.join(CASES)}")
-    return CASES[name]
+    spec = CASES.get(name, FIVE_AXIS_CASES.get(name)) if isinstance(name, str) else None
+    if spec is None:
+        raise ValueError(f"case: unknown case {name!r}; known cases: {', '.join(all_case_names())}")
+    return spec
 
 
 @dataclass(frozen=True)
@@ -481,7 +583,7 @@ def build_setup(
     if case is None and (plant is None or path is None):
         raise ValueError(
             "case: give a named case (case=...) or both plant=... and path=...; "
-            f"known cases: {', '.join(CASES)}"
+            f"known cases: {', '.join(all_case_names())}"
         )
     if case is not None and not isinstance(case, str):
         raise ValueError(f"case: expected a case name, got {type(case).__name__}")
@@ -529,6 +631,30 @@ def build_setup(
     return _make_setup(*args)
 
 
+def _five_axis_setup(spec, plant, path) -> bool | None:
+    """True when the setup is a five-axis one (case or plant), None otherwise; ValueError
+    for a five-axis case on another plant or a three-axis case on the five-axis plant."""
+    five_plant = isinstance(plant, str) and plant in FIVE_AXIS_PLANT_ALIASES
+    five_case = spec is not None and spec.plant == "five-axis"
+    if five_case and plant is not None and not five_plant:
+        raise ValueError(
+            f"plant: the case {spec.name!r} is a five-axis case (joints x, y, z, A, C); it "
+            f"runs on plant 'five-axis', not {plant!r}"
+        )
+    if five_plant and spec is not None and not five_case and path is None:
+        raise ValueError(
+            f"case: {spec.name!r} is a {spec.plant} (2/3-axis) case; the five-axis plant "
+            "runs a five-axis case (five-axis-line, five-axis-circle) or a five-axis G-code "
+            "program (path=..., X Y Z A C words)"
+        )
+    if five_case and path is not None:
+        raise ValueError(
+            f"path: the five-axis case {spec.name!r} has its own path; give plant='five-axis' "
+            "and path=... without a case for a program"
+        )
+    return True if (five_plant or five_case) else None
+
+
 def _make_setup(
     case,
     plant,
@@ -543,6 +669,22 @@ def _make_setup(
     rapid_feed=None,
 ) -> Setup:
     spec = get_case(case) if case is not None else None
+    five = _five_axis_setup(spec, plant, path)
+    if five is not None:
+        from .env.five_axis_setup import build_five_axis_setup
+
+        return build_five_axis_setup(
+            spec,
+            plant,
+            path,
+            ideal=ideal,
+            structural_mode=structural_mode,
+            feedrate=feedrate,
+            max_accel=max_accel,
+            max_jerk=max_jerk,
+            settle=settle,
+            rapid_feed=rapid_feed,
+        )
     segment_feeds = None
     segment_is_rapid = None
     program = None
@@ -558,16 +700,25 @@ def _make_setup(
         geometry = path
     elif isinstance(path, (str, os.PathLike)):
         text = os.fspath(path)
-        if (
-            isinstance(path, os.PathLike)
-            or text.lower().endswith(GCODE_SUFFIXES)
-            or (not _looks_like_gcode_text(text))
-        ):
-            program = read_gcode(text, rapid_feed_m_s=rapid_feed)
-            name = case or os.path.basename(text)
-        else:
-            program = parse_gcode(text, rapid_feed_m_s=rapid_feed)
-            name = case or "gcode"
+        try:
+            if (
+                isinstance(path, os.PathLike)
+                or text.lower().endswith(GCODE_SUFFIXES)
+                or (not _looks_like_gcode_text(text))
+            ):
+                program = read_gcode(text, rapid_feed_m_s=rapid_feed)
+                name = case or os.path.basename(text)
+            else:
+                program = parse_gcode(text, rapid_feed_m_s=rapid_feed)
+                name = case or "gcode"
+        except ValueError as exc:
+            if "rotary axis" not in str(exc):
+                raise
+            on = plant if plant is not None else spec.plant
+            raise ValueError(
+                f"{exc}; the plant {on!r} has only linear axes: A and C words need "
+                "plant='five-axis'"
+            ) from None
         geometry = program.path
     else:
         raise ValueError(

@@ -90,10 +90,10 @@ def _print_program_summary(kw) -> None:
 
 
 def cmd_cases(args) -> int:
-    from .cases import CASES
+    from .cases import all_case_names, get_case
 
     print(f"{'case':18s} {'plant':15s} {'path':10s} {'feedrate':>12s}  notes")
-    for spec in CASES.values():
+    for spec in map(get_case, all_case_names()):
         print(
             f"{spec.name:18s} {spec.plant:15s} {spec.path['kind']:10s} "
             f"{spec.feedrate_m_s:9.4f} m/s  {spec.notes[:70]}…"
@@ -203,10 +203,14 @@ def cmd_compare(args) -> int:
     def show(name, row):
         if "rms_contour_error_um" in row:
             status = "" if row["stable"] else f" UNSTABLE ({row['termination_reason']})"
+            if not row["stable"] and row.get("termination_reason") is None:
+                status = f" (incomplete: {row.get('incomplete_reason')})"
             rms = row["rms_contour_error_um"]
             text = f"{rms:.2f} µm" if rms is not None else "n/a"
             if row.get("below_resolution"):
                 text = f"≤{row['encoder_resolution_um']:g} µm (below one encoder count)"
+            theta = row.get("rms_orientation_error_arcsec")  # five-axis runs
+            text += f", RMS orientation error {theta:.2f}″" if theta is not None else ""
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
 
     metrics = tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())

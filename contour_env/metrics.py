@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .tool_errors import ARCSEC_PER_RAD
+
 # A run "followed the program" (``completed``) only if its tracking error ‖x_d − x‖ never
 # exceeded FOLLOW_LIMIT_M and ended within END_TOLERANCE_M of the reference (the end point,
 # held during the settle time). FOLLOW_LIMIT_M is also the env's default tracking-error guard
@@ -37,7 +39,8 @@ class EpisodeRecord:
     encoder_resolution_m (d,) m, the true plant's encoder count per axis (None: unknown);
     n_steps_planned: the episode's full length in steps (None: unknown); rapid (n,) bool, True
     where the step's reference is on a rapid (G00) move (``Setup.step_is_rapid``; None: the
-    path has no rapids).
+    path has no rapids); orientation_error (n,) rad, the five-axis tool's orientation error
+    (None: not a five-axis run).
     """
 
     time: np.ndarray
@@ -52,6 +55,7 @@ class EpisodeRecord:
     n_steps_planned: int | None = None
     encoder_resolution_m: np.ndarray | None = None
     rapid: np.ndarray | None = None
+    orientation_error: np.ndarray | None = None
 
     @property
     def incomplete_reason(self) -> str | None:
@@ -203,6 +207,10 @@ def score(record: EpisodeRecord, *, metrics=()) -> dict:
 
     ``metrics``: extra metrics to add (:data:`EXTRA_METRICS`): ``"total"`` adds
     ``total_contour_error_um`` (:func:`total_contour_error_um`, over the headline steps).
+
+    A five-axis run (``record.orientation_error`` set) adds ``max_orientation_error_arcsec``
+    and ``rms_orientation_error_arcsec`` (the tool's orientation error over every step,
+    arc-seconds; None where not finite); its contour error is the tool-tip contour error.
     """
     extra = check_metrics(metrics)
     eps = np.asarray(record.contour_error, dtype=np.float64)
@@ -257,6 +265,14 @@ def score(record: EpisodeRecord, *, metrics=()) -> dict:
         "rapid_rms_contour_error_um": rapid_rms,
     }
     m.update(resolution_fields(m, record.encoder_resolution_m))
+    if record.orientation_error is not None:
+        theta = np.asarray(record.orientation_error, dtype=np.float64).reshape(-1)
+        if theta.shape != (n,):
+            raise ValueError(
+                f"record.orientation_error: one angle per step ({n}), got {theta.shape[0]}"
+            )
+        m["max_orientation_error_arcsec"] = clean(np.max(np.abs(theta)) * ARCSEC_PER_RAD)
+        m["rms_orientation_error_arcsec"] = clean(_rms(theta) * ARCSEC_PER_RAD)
     if "total" in extra:
         m["total_contour_error_um"] = total_contour_error_um(head) if head.size else None
     return m

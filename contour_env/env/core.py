@@ -233,9 +233,7 @@ def _checked_plant_params(plant_params, plant, n_envs: int) -> list:
     """``plant_params`` as a list of n_envs PlantParams that fit the case's plant (axes, servo
     period, state layout, delay, substeps: the kernel runs them with the case's reference and
     settings) and lie in the documented ranges (params.PARAM_RANGES); ValueError otherwise."""
-    if isinstance(plant_params, (PlantParams, str, bytes)) or not hasattr(
-        plant_params, "__len__"
-    ):
+    if isinstance(plant_params, (PlantParams, str, bytes)) or not hasattr(plant_params, "__len__"):
         raise ValueError(
             f"plant_params: a list of one PlantParams per env ({n_envs}), got "
             f"{type(plant_params).__name__}"
@@ -748,6 +746,16 @@ def make_core(
         # the case's own env settings (e.g. corner-blend: random disturbance phase, encoder
         # noise) unless given here
         config = {**get_case(case).env_config, **config}
+    if getattr(setup, "family", None) == "five-axis":
+        # the coupled five-axis machine: its own core and kernel (contour_env.env.five_axis_core)
+        from ..cases import FIVE_AXIS_ABORT_CONTOUR_M
+        from .five_axis_core import FiveAxisCore
+
+        # its contour guard is on ε + L·θ: the family's default (programs too) unless given
+        config = {"abort_contour_error_m": FIVE_AXIS_ABORT_CONTOUR_M, **config}
+        return FiveAxisCore(
+            setup, EnvConfig(**config), n_envs, plant_params=plant_params, num_threads=num_threads
+        )
     threads = StepThreads(num_threads, n_envs)  # checked before the arrays are built
     core = EnvCore(setup, EnvConfig(**config), n_envs=n_envs, plant_params=plant_params)
     core.threads = threads

@@ -633,6 +633,9 @@ def _project_arc_xy(a) -> tuple[list, bool]:
 
 
 class _Parser:
+    # rotary-axis letters read as axis words (the five-axis parser's A and C)
+    rotary_letters = ""
+
     def __init__(self, source: str):
         self.source = source
         self.errors: list[str] = []
@@ -735,7 +738,7 @@ class _Parser:
                 if value in _M_UNSUPPORTED:
                     unsupported.append(f"{text!r} ({_M_UNSUPPORTED[value]})")
                     continue
-            elif letter in _LETTER_UNSUPPORTED:
+            elif letter in _LETTER_UNSUPPORTED and letter not in self.rotary_letters:
                 unsupported.append(f"{text!r} ({_LETTER_UNSUPPORTED[letter]})")
                 continue
             words.append(_Word(letter, value, text))
@@ -1133,6 +1136,7 @@ def parse_gcode(
     start=(0.0, 0.0, 0.0),
     rapid_feed_m_s: float | None = None,
     source: str = "<string>",
+    five_axis=None,
 ) -> GcodeProgram:
     """Parse G-code ``text`` into a `GcodeProgram` (rules: module docstring).
 
@@ -1140,12 +1144,22 @@ def parse_gcode(
     ``rapid_feed_m_s`` is the feed used for G00 moves (default: the highest F programmed).
     ``source`` names the program in error messages. Raises one ``ValueError`` listing every
     bad line.
+
+    ``five_axis``: a :class:`~contour_env.plants.five_axis.FiveAxisGeometry` reads the program
+    for the five-axis machine instead (``X Y Z A C`` words, A and C in degrees, G00/G01 only,
+    linear in joint space; ``start`` then has 5 joints, default all 0) and returns a
+    :class:`~contour_env.paths.gcode_five_axis.FiveAxisProgram`
+    (:mod:`contour_env.paths.gcode_five_axis`).
     """
     from contour_env.paths.geometry import PathGeometry
     from contour_env.paths.segments import Arc, Line
 
     if rapid_feed_m_s is not None and not (math.isfinite(rapid_feed_m_s) and rapid_feed_m_s > 0):
         raise ValueError(f"rapid_feed_m_s must be finite and > 0, got {rapid_feed_m_s!r}")
+    if five_axis is not None:
+        from .gcode_five_axis import parse_five_axis
+
+        return parse_five_axis(text, five_axis, start, rapid_feed_m_s, source)
     parser = _Parser(source)
     moves, units, feeds_seen = parser.parse(text, start)
     where = "" if source == "<string>" else f" [{source}]"

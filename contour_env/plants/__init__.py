@@ -1,10 +1,19 @@
 """Feed-drive plants: parameters, named catalogue, exact discretisation and compiled step."""
 
 from .catalog import Effects, nominal_params, plant_names
+from .five_axis import FiveAxisParams, FiveAxisPlant, five_axis_params
 from .model import PackedPlant, Plant, PlantState, pack_params, quantize
 from .params import PlantParams, params_from_mapping
 
+# the five-axis family (its own plant class and kernel, contour_env.plants.five_axis): the
+# plant names an env takes and the named parameter set each stands for
+FIVE_AXIS_PLANT_ALIASES = {"five-axis": "nxv560a", "nxv560a": "nxv560a"}
+
 __all__ = [
+    "FIVE_AXIS_PLANT_ALIASES",
+    "FiveAxisParams",
+    "FiveAxisPlant",
+    "five_axis_params",
     "Effects",
     "PackedPlant",
     "Plant",
