@@ -16,7 +16,9 @@ After the tracking rows come three more (at 4096 envs; 1024 with ``quick``):
 
 - exploration: the same envs driven by uniform random actions in [-1, 1] (what an RL agent
   sends early in training: guard terminations and resets) and by small random actions
-  (±0.01, a random walk around standstill), each with its ratio to the tracking row;
+  (±0.01, a random walk around standstill), each with its ratio to tracking: every
+  exploration window follows a tracking window on the same envs and the ratio is the median
+  of the pairs' ratios (the machine's drift between the rows cancels);
 - contended: the tracking row again while a second process spins on the CPU (the benchmark
   starts ``python -c "while True: pass"`` itself and kills it afterwards, whatever happens),
   CartPole alternating as before, with the ratio to the quiet row;
@@ -120,9 +122,12 @@ def _vector_rows(case, n, actions, rng, window, repeats):
     cvenv = gym.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     cacts = rng.integers(0, 2, (min(steps, 500), n))
 
+    def track():
+        return _time_vector(venv, acts, window)
+
     def measure():
         ours, theirs = _alternate(
-            lambda: _time_vector(venv, acts, window),
+            track,
             lambda: _time_vector(cvenv, cacts, window),
             repeats,
         )
@@ -134,7 +139,7 @@ def _vector_rows(case, n, actions, rng, window, repeats):
             "cartpole_env_steps_per_s_runs": theirs,
         }
 
-    return venv, cvenv, measure
+    return venv, cvenv, measure, track
 
 
 def tracking_actions(case: str, n_steps: int, bandwidth_rad_s: float = 60.0) -> np.ndarray:
@@ -234,7 +239,7 @@ def run_bench(
     extra_n = int(extra_envs)
     sizes = list(sizes)
     for n in sizes + ([] if extra_n in sizes or extra_n < 1 else [extra_n]):
-        venv, cvenv, measure = _vector_rows(case, n, actions, rng, window, repeats)
+        venv, cvenv, measure, track = _vector_rows(case, n, actions, rng, window, repeats)
         try:
             row = measure()
             if n in sizes:
@@ -244,7 +249,7 @@ def run_bench(
             if n != extra_n:
                 continue
             quiet = row
-            out["exploration"] = _exploration(venv, quiet, len(actions), rng, window, repeats)
+            out["exploration"] = _exploration(venv, track, len(actions), rng, window, repeats)
             if progress:
                 for r in out["exploration"]:
                     progress(
@@ -301,26 +306,33 @@ def _vector_line(label: str, row: dict) -> str:
     )
 
 
-def _exploration(venv, tracking_row, steps, rng, window, repeats) -> list:
+def _exploration(venv, track, steps, rng, window, repeats) -> list:
     # random actions instead of the servo's: uniform over the whole range (guard terminations
     # and autoresets), and small (a random walk around standstill). No phase of the episode to
-    # cover here, so a window is ``window`` seconds of passes over 500 steps
+    # cover here, so a window is ``window`` seconds of passes over 500 steps. Each window comes
+    # right after a tracking window (whole episodes, as the tracking row) on the same envs, and
+    # the ratio is the median of the window pairs' ratios: a slow spell of the machine hits both
+    # sides of a pair, where the tracking row itself was timed a minute earlier.
     steps = min(steps, 500)
     n = venv.num_envs
     dim = venv.single_action_space.shape[0]
     rows = []
     for label, amp in (("uniform random actions", 1.0), ("small random actions", SMALL_ACTION)):
         acts = rng.uniform(-amp, amp, (steps, n, dim)).astype(np.float32)
-        runs = [_time_vector(venv, acts, window) for _ in range(repeats)]
-        rate = statistics.median(runs)
+        tracked, runs = _alternate(
+            track, lambda acts=acts: _time_vector(venv, acts, window), repeats
+        )
         rows.append(
             {
                 "label": label,
                 "amplitude": amp,
                 "num_envs": n,
-                "env_steps_per_s": rate,
+                "env_steps_per_s": statistics.median(runs),
                 "env_steps_per_s_runs": runs,
-                "ratio_to_tracking": rate / tracking_row["env_steps_per_s"],
+                "tracking_env_steps_per_s_runs": tracked,
+                "ratio_to_tracking": statistics.median(
+                    r / t for r, t in zip(runs, tracked, strict=True)
+                ),
             }
         )
     return rows

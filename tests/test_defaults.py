@@ -93,6 +93,10 @@ def test_bench_quick_is_one_short_window_without_4096_envs():
     assert res["single_env_steps_per_s"] > 0
     assert [r["amplitude"] for r in res["exploration"]] == [1.0, 0.01]
     assert all(len(r["env_steps_per_s_runs"]) == 1 for r in res["exploration"])
+    for r in res["exploration"]:
+        # each exploration window paired with a tracking window timed just before it
+        (run,), (tracked,) = r["env_steps_per_s_runs"], r["tracking_env_steps_per_s_runs"]
+        assert r["ratio_to_tracking"] == run / tracked
     assert res["contended"]["num_envs"] == 64 and res["contended"]["ratio_to_quiet"] > 0
     assert len(res["contended"]["env_steps_per_s_runs"]) == 1
     text = format_bench(res)

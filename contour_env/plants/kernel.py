@@ -116,6 +116,50 @@ def external_force(x, t, nl, p, i):
     return f + _disturbance_force(t, nl, p, i)
 
 
+# |Δ| below which sin(a + Δ) is taken from sin a, cos a and Taylor series of sin Δ, cos Δ to
+# Δ⁵ (remainder below Δ⁶/720 < 1.4e-9 of the amplitude): the slow path evaluates ripple and
+# disturbance many times within one period, a short way from where it started
+NEAR_ANGLE = 0.1
+
+
+@njit(cache=True, inline="always")
+def _sin_near(a0, s0, c0, d):
+    # sin(a0 + d) from s0 = sin a0, c0 = cos a0
+    if abs(d) >= NEAR_ANGLE:
+        return math.sin(a0 + d)
+    d2 = d * d
+    sin_d = d * (1.0 - d2 * (1.0 / 6.0 - d2 * (1.0 / 120.0)))
+    cos_d = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 * (1.0 / 720.0)))
+    return s0 * cos_d + c0 * sin_d
+
+
+@njit(cache=True, inline="always")
+def _near_cache(x0, t0, nl, p, i):
+    # the ripple and disturbance phases at (x0, t0) with their sines and cosines, for
+    # external_force_near: (x0, a_r, sin a_r, cos a_r, t0, a_d, sin a_d, cos a_d)
+    a_r = nl[p, i, NL_KR] * x0
+    a_d = nl[p, i, NL_WD] * t0 + nl[p, i, NL_PHASE]
+    s_r, c_r, s_d, c_d = 0.0, 1.0, 0.0, 1.0
+    for _ in range(1 if nl[p, i, NL_AR] != 0.0 else 0):
+        s_r = math.sin(a_r)
+        c_r = math.cos(a_r)
+    for _ in range(1 if nl[p, i, NL_AD] != 0.0 else 0):
+        s_d = math.sin(a_d)
+        c_d = math.cos(a_d)
+    return (x0, a_r, s_r, c_r, t0, a_d, s_d, c_d)
+
+
+@njit(cache=True, inline="always")
+def external_force_near(x, t, nl, p, i, ec):
+    """:func:`external_force` at (x, t) near the point of the cache ``ec`` (_near_cache)."""
+    f = 0.0
+    for _ in range(1 if nl[p, i, NL_AR] != 0.0 else 0):
+        f += nl[p, i, NL_AR] * _sin_near(ec[1], ec[2], ec[3], nl[p, i, NL_KR] * (x - ec[0]))
+    for _ in range(1 if nl[p, i, NL_AD] != 0.0 else 0):
+        f += nl[p, i, NL_AD] * _sin_near(ec[5], ec[6], ec[7], nl[p, i, NL_WD] * (t - ec[4]))
+    return f
+
+
 @njit(cache=True, inline="always")
 def _advance_n(Z, zr, O, orow, mat, p, i, u, w0, w1, ns):
     for r in range(ns):
@@ -269,17 +313,17 @@ def _pow2_floor(n):
 
 
 @njit(cache=True, inline="always")
-def _hold_whole_period(Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns):
+def _hold_whole_period(Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns, ec):
     # held by static friction over the whole period if the non-friction force stays within
     # f_s at both ends of the period (the usual case at rest: no substeps needed)
-    wnf = -(external_force(Z[zr, 0], t0, nl, p, i) - w_extra)
+    wnf = -(external_force_near(Z[zr, 0], t0, nl, p, i, ec) - w_extra)
     f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
     if abs(f_nf) > fs:
         return False
     _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
     S[s, 0] = Z[zr, 0]
     S[s, 1] = 0.0
-    wnf1 = -(external_force(Z[zr, 0], t0 + T, nl, p, i) - w_extra)
+    wnf1 = -(external_force_near(Z[zr, 0], t0 + T, nl, p, i, ec) - w_extra)
     if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) > fs:
         return False
     _copy_row(S, s, Z, zr, ns)
@@ -287,7 +331,7 @@ def _hold_whole_period(Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs
 
 
 @njit(cache=True, inline="always")
-def _hold(Z, zr, u, wnf, f_nf, t_end, c, mat_h, ph, cont, nl, p, i, S, s, w_extra, fs, ns):
+def _hold(Z, zr, u, wnf, f_nf, t_end, c, mat_h, ph, cont, nl, p, i, S, s, w_extra, fs, ns, ec):
     # held over c substeps from a state within f_s: the load's acceleration cancelled (the
     # rest of the state, e.g. a motor behind a compliant screw, moves on). A chunk (c > 1) is
     # accepted only if the non-friction force is within f_s at its end as well; a fine substep
@@ -297,7 +341,7 @@ def _hold(Z, zr, u, wnf, f_nf, t_end, c, mat_h, ph, cont, nl, p, i, S, s, w_extr
     S[s, 0] = x_hold
     S[s, 1] = 0.0
     if c > 1:
-        wnf1 = -(external_force(x_hold, t_end, nl, p, i) - w_extra)
+        wnf1 = -(external_force_near(x_hold, t_end, nl, p, i, ec) - w_extra)
         if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) > fs:
             return False
     _copy_row(S, s, Z, zr, ns)
@@ -305,7 +349,7 @@ def _hold(Z, zr, u, wnf, f_nf, t_end, c, mat_h, ph, cont, nl, p, i, S, s, w_extr
 
 
 @njit(cache=True, inline="always")
-def _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns):
+def _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns, ec):
     # one fine substep from rest in the direction of the net force, friction starting at f_s;
     # returns the new stuck flag (1.0 if the mass stopped again within the substep)
     fc = nl[p, i, NL_FC]
@@ -317,7 +361,8 @@ def _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, n
     v1 = S[s, 1]
     if v1 * direction > 0.0:
         w1 = -(
-            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
+            friction_force(v1, fc, fs, vs)
+            + (external_force_near(S[s, 0], t + h, nl, p, i, ec) - w_extra)
         )
         _add_gb(S, s, mat_h, ph, i, w1 - w0, ns)
     _copy_row(S, s, Z, zr, ns)
@@ -328,7 +373,7 @@ def _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, n
 
 
 @njit(cache=True, inline="always")
-def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns):
+def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns, ec):
     # a chunk of sliding substeps in one first-order-hold predictor–corrector step, accepted
     # under the whole period's tests (axis_step): no sign change, friction within
     # FOH_FRICTION_TOL · f_s of its first-order hold. Returns whether it was taken.
@@ -337,12 +382,15 @@ def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns):
     vs = nl[p, i, NL_VS]
     v0 = Z[zr, 1]
     f0 = friction_force(v0, fc, fs, vs)
-    w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+    w0 = -(f0 + (external_force_near(Z[zr, 0], t, nl, p, i, ec) - w_extra))
     _advance(Z, zr, S, s, mat_h, pc, i, u, w0, w0, ns)
     v1 = S[s, 1]
     if v0 * v1 <= 0.0:
         return False
-    w1 = -(friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t + hc, nl, p, i) - w_extra))
+    w1 = -(
+        friction_force(v1, fc, fs, vs)
+        + (external_force_near(S[s, 0], t + hc, nl, p, i, ec) - w_extra)
+    )
     _add_gb(S, s, mat_h, pc, i, w1 - w0, ns)
     v2 = S[s, 1]
     if v0 * v2 <= 0.0:
@@ -358,7 +406,7 @@ def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns):
 
 
 @njit(cache=True, inline="always")
-def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns):
+def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec):
     # one fine sliding substep; a velocity reversal inside it is located by interpolation and
     # the mass sticks there if the non-friction force is within f_s, or slips through with
     # friction's time average. Returns (stuck flag, whether a reversal happened).
@@ -367,12 +415,13 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns):
     vs = nl[p, i, NL_VS]
     v0 = Z[zr, 1]
     f0 = friction_force(v0, fc, fs, vs)
-    w0 = -(f0 + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+    w0 = -(f0 + (external_force_near(Z[zr, 0], t, nl, p, i, ec) - w_extra))
     _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
     v1 = S[s, 1]
     if v0 * v1 > 0.0:
         w1 = -(
-            friction_force(v1, fc, fs, vs) + (external_force(S[s, 0], t + h, nl, p, i) - w_extra)
+            friction_force(v1, fc, fs, vs)
+            + (external_force_near(S[s, 0], t + h, nl, p, i, ec) - w_extra)
         )
         _add_gb(S, s, mat_h, ph, i, w1 - w0, ns)
         v1 = S[s, 1]
@@ -384,7 +433,7 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns):
     for r in range(ns):
         S[s2, r] = Z[zr, r] + alpha * (S[s, r] - Z[zr, r])
     S[s2, 1] = 0.0
-    wnf = -(external_force(S[s2, 0], t + alpha * h, nl, p, i) - w_extra)
+    wnf = -(external_force_near(S[s2, 0], t + alpha * h, nl, p, i, ec) - w_extra)
     f_nf = _nonfriction_force(S, s2, u, wnf, cont, p, i, ns)
     if abs(f_nf) <= fs:
         _copy_row(S, s2, Z, zr, ns)
@@ -392,7 +441,7 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns):
     # slips through: friction reverses at the crossing; its time average over the substep
     f_after = fs if f_nf > 0.0 else -fs
     f_avg = alpha * f0 + (1.0 - alpha) * f_after
-    w = -(f_avg + (external_force(Z[zr, 0], t, nl, p, i) - w_extra))
+    w = -(f_avg + (external_force_near(Z[zr, 0], t, nl, p, i, ec) - w_extra))
     _advance(Z, zr, S, s, mat_h, ph, i, u, w, w, ns)
     _copy_row(S, s, Z, zr, ns)
     return 0.0, True
@@ -418,8 +467,11 @@ def _axis_step_slow(
     fs = nl[p, i, NL_FS]
     if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
         stuck = 1.0
+    # ripple and disturbance at the start of the period, and from there by series (see
+    # external_force_near): one sine and cosine however many evaluations follow
+    ec = _near_cache(Z[zr, 0], t0, nl, p, i)
     if stuck != 0.0 and _hold_whole_period(
-        Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns
+        Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns, ec
     ):
         return 1.0
     h = T / n_sub
@@ -437,7 +489,7 @@ def _axis_step_slow(
         if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
             stuck = 1.0
         if stuck != 0.0:
-            wnf = -(external_force(Z[zr, 0], t, nl, p, i) - w_extra)
+            wnf = -(external_force_near(Z[zr, 0], t, nl, p, i, ec) - w_extra)
             f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
             if abs(f_nf) <= fs:
                 if _hold(
@@ -459,21 +511,26 @@ def _axis_step_slow(
                     w_extra,
                     fs,
                     ns,
+                    ec,
                 ):
                     j += c
                 else:
                     suspect, hi = True, j + c
                 continue
-            stuck = _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns)
+            stuck = _break_away(
+                Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns, ec
+            )
             suspect, hi = False, n_sub
             j += 1
         elif c > 1:
-            if _slide_chunk(Z, zr, u, t, c * h, mat_h, pc, nl, p, i, S, s, w_extra, ns):
+            if _slide_chunk(Z, zr, u, t, c * h, mat_h, pc, nl, p, i, S, s, w_extra, ns, ec):
                 j += c
             else:
                 suspect, hi = True, j + c
         else:
-            stuck, event = _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns)
+            stuck, event = _slide_fine(
+                Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec
+            )
             if event:
                 suspect, hi = False, n_sub
             j += 1
