@@ -60,6 +60,7 @@ def config_from_args(args):
         n_envs=args.n_envs,
         train_freq=args.train_freq,
         time_budget_s=args.time_budget,
+        eval_every_s=args.eval_every_s,
         gradient_steps=args.gradient_steps,
         scale=args.scale,
         observe_base_command=args.observe_base_command,
@@ -287,6 +288,13 @@ def add_rl_commands(sub) -> None:
     )
     p.add_argument("--net-arch", help="hidden layer sizes, e.g. 64,64 (default)")
     p.add_argument("--eval-freq", type=int, default=None, help="timesteps between evaluations")
+    p.add_argument(
+        "--eval-every-s",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="also evaluate after every SECONDS of training time (time-to-target runs)",
+    )
     p.add_argument(
         "--checkpoint-freq", type=int, default=None, help="timesteps between checkpoints"
     )

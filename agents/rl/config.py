@@ -46,7 +46,7 @@ ALGOS = ("sac", "td3", "ppo")
 PATH_VARIETY = ("circles", "splines", "families")
 CONFIG_FORMAT = "contour_env.train_config/1"
 # keys that may differ on --resume
-RESUMABLE_KEYS = ("timesteps", "time_budget_s")
+RESUMABLE_KEYS = ("timesteps", "time_budget_s", "eval_every_s")
 
 
 def _file_digest(path: str) -> str:
@@ -107,6 +107,9 @@ class TrainConfig:
     ppo_n_steps: int = 256
     # bookkeeping
     eval_freq: int | None = None
+    # also evaluate whenever this much more training time (s) has passed (None: by timesteps
+    # only): what a time-to-target run needs, whatever the algorithm's steps per second
+    eval_every_s: float | None = None
     checkpoint_freq: int | None = None
     keep_checkpoints: int = 2
     torch_threads: int = 1
@@ -176,6 +179,11 @@ class TrainConfig:
             isinstance(tb, bool) or not isinstance(tb, (int, float)) or not (0 < tb < math.inf)
         ):
             raise ValueError(f"time_budget_s: a finite number of seconds > 0 or None, got {tb!r}")
+        es = self.eval_every_s
+        if es is not None and (
+            isinstance(es, bool) or not isinstance(es, (int, float)) or not (0 < es < math.inf)
+        ):
+            raise ValueError(f"eval_every_s: a finite number of seconds > 0 or None, got {es!r}")
         gs = self.gradient_steps
         if gs is not None and (
             isinstance(gs, bool) or not isinstance(gs, int) or (gs < 1 and gs != -1)

@@ -16,7 +16,8 @@
   the policy's mean RMS contour error (µm) on them at every evaluation, and the best point;
 - ``learning_curve.json``, ``learning_curve.png``: RMS contour error (µm) on the training
   cases / G-code files vs timesteps, the base's level as a horizontal line (runs with cases
-  or G-code files only);
+  or G-code files only); the JSON is rewritten at every evaluation (``"complete": false``
+  until the run ends), so a long run can be read while it runs;
 - ``checkpoints/step_*``: periodic checkpoints (:mod:`agents.rl.checkpoint`);
 - ``tb/``: TensorBoard logs, only when ``tensorboard`` is installed (it is not a dependency).
 
@@ -298,6 +299,9 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             self.bar = None
             last = max((pt["timesteps"] for pt in curve + val_curve), default=0)
             self.next_eval = last + cfg.eval_every()
+            # by training time as well (eval_every_s), counted on from the last point
+            last_s = max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0)
+            self.next_eval_s = None if cfg.eval_every_s is None else last_s + cfg.eval_every_s
             self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
             self.ckpt_due = False
 
@@ -328,6 +332,18 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 shown.update(val_best_um=f"{best.rms:.3g}", val_base_um=f"{validator.base_rms:.3g}")
             if self.bar is not None:
                 self.bar.set_postfix(**shown)
+            if evaluator is not None:
+                # the curve so far, so that an interrupted or long run can be read while it
+                # runs (rewritten with the final point at the end)
+                atomic_write_json(
+                    out / "learning_curve.json",
+                    {
+                        "base": cfg.base,
+                        "base_rms_contour_error_um": evaluator.base_rms,
+                        "curve": curve,
+                        "complete": False,
+                    },
+                )
             clock["eval"] += time.perf_counter() - t_in
 
         def _on_step(self) -> bool:
@@ -335,9 +351,13 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 self.bar.update(self.num_timesteps - self.bar.n)
             if cfg.time_budget_s is not None and train_s() >= cfg.time_budget_s:
                 return False  # sb3 ends learn(); the run is finished as at its last step
-            if self.num_timesteps >= self.next_eval:
+            by_time = self.next_eval_s is not None and train_s() >= self.next_eval_s
+            if self.num_timesteps >= self.next_eval or by_time:
                 self._evaluate()
-                self.next_eval += cfg.eval_every()
+                while self.next_eval <= self.num_timesteps:
+                    self.next_eval += cfg.eval_every()
+                if self.next_eval_s is not None:
+                    self.next_eval_s = train_s() + cfg.eval_every_s
             if self.num_timesteps >= self.next_ckpt:
                 if cfg.algo == "ppo":
                     self._checkpoint()
@@ -419,7 +439,12 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     if evaluator is not None:
         atomic_write_json(
             out / "learning_curve.json",
-            {"base": cfg.base, "base_rms_contour_error_um": evaluator.base_rms, "curve": curve},
+            {
+                "base": cfg.base,
+                "base_rms_contour_error_um": evaluator.base_rms,
+                "curve": curve,
+                "complete": True,
+            },
         )
         title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or summary['gcode'])}"
         plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")

@@ -2,6 +2,7 @@
 
 import json
 import shutil
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -353,3 +354,41 @@ def test_time_budget_ends_training_before_the_timesteps(tmp_path, gcode):
     assert pts[-1]["timesteps"] == summary["timesteps"]
     with pytest.raises(ValueError, match="time_budget_s: a finite number of seconds > 0"):
         TrainConfig(gcode=(gcode,), **{**TINY, "time_budget_s": 0})
+
+
+def test_eval_every_s_evaluates_by_training_time_and_the_curve_is_written_as_it_runs(
+    tmp_path, gcode, monkeypatch
+):
+    import agents.rl.trainer as trainer_module
+
+    out = tmp_path / "es"
+    written = []  # every learning_curve.json the run writes, in order
+    real_write = trainer_module.atomic_write_json
+
+    def spy(path, payload, *a, **kw):
+        if Path(path).name == "learning_curve.json":
+            written.append(json.loads(json.dumps(payload)))
+        return real_write(path, payload, *a, **kw)
+
+    monkeypatch.setattr(trainer_module, "atomic_write_json", spy)
+
+    cfg = TrainConfig(
+        gcode=(gcode,),
+        algo="sac",
+        **{**TINY, "timesteps": 1_000_000, "time_budget_s": 2.0, "eval_freq": 10**6,
+           "eval_every_s": 0.4, "validation_paths": 0},
+    )  # fmt: skip
+    summary = train(cfg, out, progress=False, log=lambda *a: None)
+    final = json.loads((out / "learning_curve.json").read_text())
+    assert final["complete"] is True and written[-1] == final
+    # one partial curve per periodic evaluation, each one point longer
+    partial = written[:-1]
+    assert partial and all(w["complete"] is False for w in partial)
+    assert [len(w["curve"]) for w in partial] == list(range(1, len(partial) + 1))
+    # evaluations every 0.4 s of training time (eval_freq alone would give none before the end)
+    ts = [p["train_s"] for p in final["curve"]]
+    assert len(ts) >= 3 and ts[-1] == summary["train_s"]
+    periodic = ts[:-1]  # the last point is the final model's, scored at the end
+    assert all(b - a >= 0.4 for a, b in zip(periodic[:-1], periodic[1:], strict=True))
+    with pytest.raises(ValueError, match="eval_every_s: a finite number of seconds > 0"):
+        TrainConfig(gcode=(gcode,), **{**TINY, "eval_every_s": -1})
