@@ -31,8 +31,11 @@ class Controller:
     adaptive estimates) that :meth:`reset` clears."""
 
     name = "controller"
+    # the plant family the class runs on: None = the feed-drive plants (2/3 axes)
+    plant_family = None
 
     def __init__(self):
+        self._five_axis = None  # the five-axis controller this one forwards to (bind)
         self._core = None
         self._single = True
         self.nominal = None
@@ -44,8 +47,22 @@ class Controller:
 
     def bind(self, env) -> Controller:
         """Attach to an env and reset. The controller keeps the axis count it was first bound
-        with: binding it to an env with another number of axes is an error."""
+        with: binding it to an env with another number of axes is an error.
+
+        A feed-drive controller made by :func:`agents.make_controller` and bound to a
+        five-axis env binds the five-axis class of the same spec instead (``pd`` → Chen
+        2022's joint PD; a name without one, e.g. ``ccc``, is a ValueError) and forwards
+        :meth:`predict`, :meth:`command`, :meth:`action` and :meth:`reset` to it."""
         holder, core = _core_of(env)
+        family = getattr(core.setup, "family", None)
+        if family == "five-axis" and self.plant_family != family:
+            from .registry import five_axis_counterpart
+
+            self._five_axis = five_axis_counterpart(self).bind(env)
+            self._core, self._single = self._five_axis._core, self._five_axis._single
+            self.n_envs = self._five_axis.n_envs
+            return self
+        self._five_axis = None
         self._attach(core.setup.plant, core.n_envs)
         self._core = core
         self._single = not hasattr(holder, "num_envs")
@@ -81,6 +98,8 @@ class Controller:
 
     def reset(self, mask=None) -> None:
         """Start of an episode for the envs in ``mask`` (all if None)."""
+        if getattr(self, "_five_axis", None) is not None:
+            self._five_axis.reset(mask)
 
     def act(self, signals: dict) -> np.ndarray:
         """Command (B, A) from batched signals (see :meth:`EnvCore.signals_batch`)."""
@@ -107,15 +126,21 @@ class Controller:
     def command(self, signals: dict) -> np.ndarray:
         """The residual-base interface: command (B, A) in the plant's units for (single or
         batched) signals."""
+        if getattr(self, "_five_axis", None) is not None:
+            return self._five_axis.command(signals)
         return self.act(signals_to_batch(signals))
 
     def action(self, signals: dict) -> np.ndarray:
         """Env action (B, A): the command as a fraction of the force limit, clipped to [-1, 1]."""
+        if getattr(self, "_five_axis", None) is not None:
+            return self._five_axis.action(signals)
         u = np.asarray(self.command(signals), dtype=np.float64)
         return np.clip(u / self.force_limit, -1.0, 1.0).astype(np.float32)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         """stable-baselines3 signature; reads the bound env's servo signals."""
+        if getattr(self, "_five_axis", None) is not None:
+            return self._five_axis.predict(observation, state, episode_start, deterministic)
         if self._core is None:
             raise ValueError(f"controller {self.name!r}: call bind(env) before predict")
         if episode_start is not None:

@@ -13,7 +13,7 @@ import numpy as np
 
 from .base import Controller, _core_of, per_axis
 from .ismc import PAPER_ISMC_GAINS, PAPER_PD_GAINS, EquivalentErrorISMC, JointPD
-from .parameters import AXES, FLOAT, Param
+from .parameters import AXES, BOOL, FLOAT, Param
 
 # a five-axis program (G-code) has no paper gains: PD takes the line's
 DEFAULT_PD_CASE = "five-axis-line"
@@ -21,6 +21,8 @@ DEFAULT_PD_CASE = "five-axis-line"
 
 class _FiveAxisController(Controller):
     """Base of the five-axis controllers: binds only to the five-axis plant."""
+
+    plant_family = "five-axis"
 
     def bind(self, env) -> Controller:
         _, core = _core_of(env)
@@ -112,7 +114,10 @@ class ISMCController(_FiveAxisController):
     as G-code has none: binding raises ValueError (no local fit is made).
 
     Parameters: b1 (1/s), b2 (1/s²), rho, mu (> 0; default the paper's Table 2 gains of the
-    case) and tangent_floor_m_s (≥ 0, the regulariser v₀ of the tangential error).
+    case), tangent_floor_m_s (≥ 0, the regulariser v₀ of the tangential error; default the
+    path's peak feed) and predict_delay (default True: the law acts on the state predicted
+    over the plant's computation delay with the nominal model; nothing to predict on the
+    ideal plant, which has none).
     """
 
     name = "ismc"
@@ -124,15 +129,23 @@ class ISMCController(_FiveAxisController):
         "mu": Param("mu", "boundary layer μ of tanh(σ/μ) (default Table 2)", FLOAT, ">0"),
         "v0": Param(
             "tangent_floor_m_s",
-            "tangential-error regulariser v₀, m/s (default 1 % of feed)",
+            "tangential-error regulariser v₀, m/s (default the peak feed)",
             FLOAT,
             ">=0",
         ),  # fmt: skip
+        "predict": Param(
+            "predict_delay",
+            "predict the state over the computation delay with the nominal model (default 1)",
+            BOOL,
+        ),
     }
 
-    def __init__(self, b1=None, b2=None, rho=None, mu=None, tangent_floor_m_s=None):
+    def __init__(
+        self, b1=None, b2=None, rho=None, mu=None, tangent_floor_m_s=None, predict_delay=True
+    ):
         super().__init__()
         self.gains = dict(b1=b1, b2=b2, rho=rho, mu=mu, tangent_floor_m_s=tangent_floor_m_s)
+        self.predict_delay = bool(predict_delay)
         self._per_env = []
 
     def configure(self) -> None:
@@ -145,7 +158,13 @@ class ISMCController(_FiveAxisController):
                 f"({', '.join(PAPER_ISMC_GAINS)})"
             )
         self._per_env = [
-            EquivalentErrorISMC(path, self.nominal.inertia, **self.gains)
+            EquivalentErrorISMC(
+                path,
+                self.nominal.inertia,
+                **self.gains,
+                computation_delay_steps=self.computation_delay_steps if self.predict_delay else 0,
+                drive_limit=self.force_limit,
+            )
             for _ in range(self.n_envs)
         ]
 

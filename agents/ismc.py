@@ -28,11 +28,17 @@ PAPER_ISMC_GAINS = {
     "five-axis-line": (57.0, 800.0, 50.0, 0.05),
     "five-axis-circle": (283.0, 800.0, 150.0, 0.8),
 }
-# Tangential-error regulariser v₀ (m/s) as a share of the path's peak feed: the paper's
-# e = ξ̇_dᵀ (ξ − ξ_d) has a zero row in Γ where ξ̇_d = 0 (the start and end of the S-curve);
-# w = dξ_d/ds (ṡ + v₀) keeps it invertible (FiveAxisPath docstring). 1 % of the peak feed
-# changes the weight of e by at most a few per cent while moving.
-DEFAULT_TANGENT_FLOOR_SHARE = 0.01
+# Tangential-error regulariser v₀ (m/s) as a share of the path's peak feed F. The paper's
+# e = ξ̇_dᵀ (ξ − ξ_d) = ṡ · (dξ_d/ds)ᵀ (ξ − ξ_d) is the tangential error along the joint-space
+# tangent dξ_d/ds scaled by the feed ṡ: a time-varying scale that is zero at rest (Γ of
+# eq. 7 loses its last row at the start and end of the S-curve). The sliding surface
+# σ = η̇ + b₁η + b₂∫η does not need that scale, and it hurts: ∫e gathered at cruise feed is
+# worked off at the end of the path where the scale is ṡ + v₀ ≈ v₀, so with v₀ = 1 % of F a
+# tangential offset is amplified ~100× as the feed stops (the circle diverged there on the
+# realistic plant). w = dξ_d/ds (ṡ + v₀) with v₀ = F keeps the scale within F … 2F over the
+# whole path (e at cruise is twice the paper's, at rest equal to it at cruise): the same
+# law, now well-conditioned from rest to rest. v₀ = 0 is the paper's weight.
+DEFAULT_TANGENT_FLOOR_SHARE = 1.0
 
 
 def _positive(name: str, value) -> float:
@@ -73,13 +79,34 @@ class EquivalentErrorISMC:
         circle: 283, 800, 150, 0.8).
     tangent_floor_m_s : float >= 0, optional
         v₀ of the tangential error's weight w = dξ_d/ds (ṡ + v₀); 0 is the paper's
-        w = ξ̇_d. Default 1 % of the path's peak feed.
+        w = ξ̇_d (singular at rest). Default the path's peak feed F (see
+        ``DEFAULT_TANGENT_FLOOR_SHARE``: the weight then stays within F … 2F).
+    computation_delay_steps : int >= 0
+        The servo's computation delay n (periods; the realistic plant's: 1): the command
+        computed now acts from n periods later. The law is then applied to the state predicted
+        n periods ahead with the nominal model under the commands already issued (and the
+        reference sample k + n); 0 (default): the measured state, as in the paper. The delay
+        is a property of the controller's own hardware, so the controller knows it.
+    drive_limit : (5,) or scalar, optional
+        The drive limits (N, N·m) the issued commands are clipped to in the prediction.
 
     State: ``integral`` (5,) = ∫η dt, by the rectangle rule at the servo period (updated with
-    η_k before σ_k is formed); reset() zeroes it.
+    η_k before σ_k is formed) and, with a delay, the last n + 1 commands issued; reset()
+    clears both.
     """
 
-    def __init__(self, path, inertia, b1=None, b2=None, rho=None, mu=None, tangent_floor_m_s=None):
+    def __init__(
+        self,
+        path,
+        inertia,
+        b1=None,
+        b2=None,
+        rho=None,
+        mu=None,
+        tangent_floor_m_s=None,
+        computation_delay_steps: int = 0,
+        drive_limit=None,
+    ):
         self.path = _require_algebraic(path)
         self.inertia = inertia
         paper = PAPER_ISMC_GAINS.get(path.name)
@@ -99,16 +126,64 @@ class EquivalentErrorISMC:
             raise ValueError(f"tangent_floor_m_s: must be a finite number >= 0, got {v0!r}")
         self.tangent_floor_m_s = v0
         self.dt = path.reference.servo_period_s
+        delay = computation_delay_steps
+        if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+            raise ValueError(f"computation_delay_steps: must be an integer >= 0, got {delay!r}")
+        self.computation_delay_steps = int(delay)
+        if drive_limit is None:
+            self.drive_limit = None
+        else:
+            lim = np.broadcast_to(np.asarray(drive_limit, dtype=np.float64), (5,)).copy()
+            if not np.all(np.isfinite(lim) & (lim > 0)):
+                raise ValueError(f"drive_limit: must be finite and > 0, got {lim.tolist()}")
+            self.drive_limit = lim
         self.reset()
 
     def reset(self) -> None:
-        """Zero the integral state ∫η dt."""
+        """Zero the integral state ∫η dt and forget the commands still in the delay line."""
         self.integral = np.zeros(5)
+        self._in_flight = []
+
+    def _applied(self, u) -> np.ndarray:
+        return u if self.drive_limit is None else np.clip(u, -self.drive_limit, self.drive_limit)
+
+    def predict(self, q, qd):
+        """The state (ξ, ξ̇) the command now computed will act on: ``computation_delay_steps``
+        periods ahead of the measurement, by the nominal model ξ̈ = f + G u under the commands
+        already issued and not yet applied (the first ones of an episode: the gravity hold).
+        With a delay, ξ̇ (a backward difference over the last period: the rate half a period
+        ago) is first advanced by half a period."""
+        n = self.computation_delay_steps
+        if n == 0:
+            return q, qd
+        T = self.dt
+        hold = gravity(q, self.inertia)
+        issued = [hold] * (n + 1 - len(self._in_flight)) + list(self._in_flight)
+        # ξ̇ is the rate of the last period's mid-point: advance it by the command applied then
+        f, g = drift_and_gain(q, qd, self.inertia)
+        qd = qd + 0.5 * T * (f + g @ issued[-n - 1])
+        for u in issued[-n:]:
+            f, g = drift_and_gain(q, qd, self.inertia)
+            acc = f + g @ u
+            q = q + T * qd + 0.5 * T * T * acc
+            qd = qd + T * acc
+        return q, qd
 
     def command(self, q, qd, k: int) -> np.ndarray:
-        """Joint command u (5,) at joints q, rates qd (5,) and reference sample k."""
+        """Joint command u (5,) at joints q, rates qd (5,) and reference sample k (with a
+        computation delay: the state predicted for sample k + delay, and its reference)."""
         q = np.asarray(q, dtype=np.float64)
         qd = np.asarray(qd, dtype=np.float64)
+        n = self.computation_delay_steps
+        if n:
+            q, qd = self.predict(q, qd)
+            k = k + n
+        u = self._law(q, qd, k)
+        if n:
+            self._in_flight = [*self._in_flight, self._applied(u)][-n - 1 :]
+        return u
+
+    def _law(self, q, qd, k: int) -> np.ndarray:
         v0 = self.tangent_floor_m_s
         eta, eta_dot = self.path.equivalent_errors(q, qd, k, v0)
         self.integral = self.integral + self.dt * eta

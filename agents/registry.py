@@ -113,14 +113,59 @@ def format_controllers() -> str:
     return "\n".join(lines)
 
 
-def make_controller(name: str, *, plant_family: str | None = None, **kwargs):
+def plant_family_of(env) -> str | None:
+    """The plant family of a contour_env env (single, wrapped or vectorised): ``"five-axis"``
+    for the five-axis machine, None for the feed-drive plants."""
+    from .base import _core_of
+
+    return getattr(_core_of(env)[1].setup, "family", None)
+
+
+def make_controller(name: str, *, plant_family: str | None = None, env=None, **kwargs):
     """A controller by name or variant spec (unbound; call ``.bind(env)``).
 
     ``make_controller("ccc:wp=3e4:wd=20")`` and ``make_controller("ccc", W_p=3e4, W_d=20)``
     are the same controller; a keyword given both ways is a ``ValueError``.
     ``plant_family="five-axis"``: the five-axis class of the name
     (:data:`FIVE_AXIS_CONTROLLERS`: ``pd`` is then Chen 2022's joint PD); a name with none is
-    a ``ValueError``."""
+    a ``ValueError``. ``env``: take the family from that env (:func:`plant_family_of`).
+
+    A feed-drive controller built without the family and bound to a five-axis env still works:
+    :meth:`Controller.bind` builds the five-axis class of the same spec and forwards to it
+    (``make_controller("pd").bind(five_axis_env)`` runs Chen 2022's joint PD)."""
+    if env is not None:
+        family = plant_family_of(env)
+        if plant_family is not None and plant_family != family:
+            raise ValueError(
+                f"plant_family: {plant_family!r} given, but the env's plant family is {family!r}"
+            )
+        plant_family = family
+    ctrl = _make(name, plant_family, kwargs)
+    ctrl._spec = (name, dict(kwargs))  # for Controller.bind's five-axis counterpart
+    return ctrl
+
+
+def five_axis_counterpart(controller):
+    """The five-axis controller (unbound) of the spec ``controller`` was built from by
+    :func:`make_controller`; ``ValueError`` where the name has none or the spec is unknown."""
+    name = controller.name
+    if name not in FIVE_AXIS_CONTROLLERS:
+        raise ValueError(
+            f"controller {name!r}: not available on the five-axis plant; known there: "
+            f"{', '.join(FIVE_AXIS_CONTROLLERS)}"
+        )
+    spec = getattr(controller, "_spec", None)
+    if spec is None:
+        raise ValueError(
+            f"controller {name!r} ({type(controller).__name__}, built directly) is a feed-drive "
+            "controller; for the five-axis plant build it with "
+            f"agents.make_controller({name!r}, plant_family='five-axis')"
+        )
+    spec_text, kwargs = spec
+    return make_controller(spec_text, plant_family="five-axis", **kwargs)
+
+
+def _make(name: str, plant_family, kwargs):
     if plant_family == "five-axis":
         base, _ = split_spec(name)
         if base not in FIVE_AXIS_CONTROLLERS:

@@ -157,7 +157,9 @@ def cmd_run(args) -> int:
     if args.controller:
         from agents import make_controller
 
-        policy, label = make_controller(args.controller).bind(env), args.controller
+        # env=: the controller of the env's plant family (pd on the five-axis plant is
+        # Chen 2022's joint PD)
+        policy, label = make_controller(args.controller, env=env).bind(env), args.controller
     record = run_episode(env, policy, seed=args.seed)
     metrics = score(record, metrics=metrics_asked)
     _print_metrics(label, metrics)
@@ -304,7 +306,7 @@ def cmd_ilc(args) -> int:
     if args.disturbance_phase:
         kw["disturbance_phase"] = args.disturbance_phase
     env = gym.make(ENV_ID, **kw)
-    controller = make_controller(args.controller)
+    controller = make_controller(args.controller, env=env)
     if args.load:
         controller.load_state(args.load)
     controller.bind(env)

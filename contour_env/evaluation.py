@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .env import kernel as K
+from .env.five_axis_rollout import is_five_axis_env, run_five_axis_episode
 from .env.rollout import compiled_allowed, empty_record, episode_record, try_compiled_episode
 from .metrics import EpisodeRecord, score
 
@@ -29,8 +30,14 @@ def run_episode(
     ``jee-ccc``, ``rfnn``, ``fnn``) on an unwrapped, non-rendering env runs as one compiled loop
     (:mod:`contour_env.env.rollout`), with the same record to the bit; ``compiled=False`` (or
     ``CONTOUR_ENV_COMPILED=0``) forces the Python loop, ``None`` (default) takes the compiled
-    one where it applies."""
+    one where it applies.
+
+    On the five-axis env the episode runs in :func:`contour_env.env.five_axis_rollout.
+    run_five_axis_episode` (Python loop), whose record adds the tool's orientation error, so
+    every scoring path reports ``max/rms_orientation_error_arcsec`` there."""
     core = _unwrap(env)
+    if is_five_axis_env(env):
+        return run_five_axis_episode(env, policy, seed=seed, deterministic=deterministic)
     if compiled_allowed(compiled):
         record = try_compiled_episode(env, policy, seed)
         if record is not None:

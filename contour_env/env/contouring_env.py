@@ -24,6 +24,12 @@ class ContouringEnv(gym.Env):
     the path: the reward comes from the **true contour error** ε, the shortest distance from
     the tool to the whole path.
 
+    The five-axis machine (``plant="five-axis"``; cases ``five-axis-line`` and
+    ``five-axis-circle``, or a G-code program with A and C words) is driven by its five
+    coupled joints x, y, z, A, C instead: its action, observation, reward (tool-tip contour
+    and orientation error) and info keys are documented in
+    :mod:`contour_env.env.five_axis_core`, its use in docs/FIVE_AXIS.md.
+
     ## Action Space
 
     ``Box(-1, 1, (n,), float32)``: the per-axis actuator command as a fraction of the axis

@@ -3,9 +3,8 @@ equivalent-error ISMC of Chen, Khong & Hsieh (2022), tool-tip contour error and 
 error.
 
 The paper simulates its own model (no friction, delay, current lag or mismatch): with
-``ideal=True`` ISMC beats PD by more than 10× on both errors on both cases (asserted).
-On the realistic plant (the default) the figures are recorded in the module's table below
-and checked only for what holds there (see the ISMC notes in the test)."""
+``ideal=True`` ISMC beats PD by more than 10× on both errors on both cases (asserted), and
+so it does on the realistic plant (the default; asserted too, docs/FIVE_AXIS.md's table)."""
 
 import numpy as np
 import pytest
@@ -41,17 +40,22 @@ def test_ismc_beats_pd_tenfold_on_the_papers_model(case):
 
 
 @pytest.mark.parametrize("case", CASES)
-def test_compare_on_the_realistic_plant_reports_both_errors(case):
-    # the realistic plant: friction, current lag, one-period delay, +20 % table inertia
-    result = compare(["pd", "ismc:v0=0.1"], case=case)
+def test_ismc_beats_pd_tenfold_on_the_realistic_plant(case):
+    # the realistic plant (default): friction, current lag, one-period computation delay,
+    # +20 % table inertia. The default ISMC (Table 2 gains) predicts over its own delay with
+    # the nominal model and weights the tangential error by dξ_d/ds (ṡ + F), F the peak feed
+    result = compare(["pd", "ismc"], case=case)
     print(f"\n{format_table(result)}\npaper: {PAPER[case]}")
     pd, pd_eps, pd_theta = _rms(result, "pd")
-    ismc, ismc_eps, ismc_theta = _rms(result, "ismc:v0=0.1")
+    ismc, ismc_eps, ismc_theta = _rms(result, "ismc")
     assert pd["termination_reason"] is None and ismc["completed"]
     assert np.isfinite([pd_eps, pd_theta, ismc_eps, ismc_theta]).all()
-    # ISMC (tangential-error floor v0 = 0.1 m/s) keeps the tip and the tool far closer
-    assert ismc_eps <= 0.2 * pd_eps
+    assert ismc_eps <= 0.1 * pd_eps
     assert ismc_theta <= 0.1 * pd_theta
+    # no chattering near the drive limits (8, 10, 12 kN, 1.5, 0.6 kN·m): the RMS command
+    # stays at what the path and gravity need (z carries the spindle head's ~4.4 kN)
+    limits = np.array([8000.0, 10000.0, 12000.0, 1500.0, 600.0])
+    assert np.all(np.asarray(ismc["rms_effort"]) < 0.5 * limits)
 
 
 def test_orientation_metrics_in_arcsec():

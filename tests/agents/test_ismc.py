@@ -133,3 +133,52 @@ def test_plain_pd_holds_the_gravity_load_on_the_reference(paths, plant):
     pd = JointPD(path, inertia, kp=1e6, kd=1e4, inverse_dynamics=False)
     u = pd.command(ref.joints[700], ref.joint_rate[700], 700)
     np.testing.assert_allclose(u, gravity(ref.joints[700], inertia))
+
+
+def test_delay_prediction_follows_the_nominal_model(paths, plant):
+    # on the reference, with the inverse-dynamics commands in the delay line, the state
+    # predicted one period ahead is the reference's next sample (to the Taylor step's O(T³))
+    from contour_env.plants.five_axis import coriolis_matrix, mass_matrix
+
+    path = paths["five-axis-circle"]
+    inertia = plant.nominal.inertia
+    ref = path.reference
+    k = 1000
+
+    def u_ref(i):
+        q, qd = ref.joints[i], ref.joint_rate[i]
+        h = coriolis_matrix(q, qd, inertia) @ qd + gravity(q, inertia)
+        return mass_matrix(q, inertia) @ ref.joint_accel[i] + h
+
+    law = EquivalentErrorISMC(path, inertia, computation_delay_steps=1)
+    law._in_flight = [u_ref(k - 1), u_ref(k)]
+    # the measured rate is a backward difference: the mid-point rate of the last period
+    qd_meas = (ref.joints[k] - ref.joints[k - 1]) / ref.servo_period_s
+    q1, qd1 = law.predict(ref.joints[k], qd_meas)
+    np.testing.assert_allclose(q1, ref.joints[k + 1], atol=1e-9)
+    np.testing.assert_allclose(qd1, ref.joint_rate[k + 1], atol=2e-5)
+    # without a delay the law acts on the measurement itself
+    law0 = EquivalentErrorISMC(path, inertia)
+    q0, qd0 = law0.predict(ref.joints[k], qd_meas)
+    assert np.array_equal(q0, ref.joints[k]) and np.array_equal(qd0, qd_meas)
+    # the commands issued are kept (clipped to the drive limits), and reset() forgets them
+    lim = np.array([8000.0, 10000.0, 12000.0, 1500.0, 600.0])
+    law = EquivalentErrorISMC(path, inertia, computation_delay_steps=1, drive_limit=lim)
+    u = law.command(ref.joints[k], ref.joint_rate[k], k)
+    np.testing.assert_allclose(law._in_flight[-1], np.clip(u, -lim, lim))
+    law.reset()
+    assert law._in_flight == [] and np.all(law.integral == 0)
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="computation_delay_steps"):
+            EquivalentErrorISMC(path, inertia, computation_delay_steps=bad)
+
+
+def test_default_tangential_weight_stays_within_one_to_two_peak_feeds(paths, plant):
+    # w = dξ_d/ds (ṡ + v₀) with v₀ = F (the peak feed): defined at rest, within F … 2F
+    for path in paths.values():
+        law = EquivalentErrorISMC(path, plant.nominal.inertia)
+        peak = float(np.max(path.reference.feedrate_m_s))
+        assert law.tangent_floor_m_s == pytest.approx(peak)
+        scale = path.reference.feedrate_m_s + law.tangent_floor_m_s
+        assert scale.min() >= peak * (1 - 1e-12) and scale.max() <= 2 * peak * (1 + 1e-12)
+        law.command(path.reference.joints[0], np.zeros(5), 0)  # Γ invertible at rest

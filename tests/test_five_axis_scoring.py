@@ -1,0 +1,112 @@
+"""Controller resolution and scoring on the five-axis env (issue 16): every way a user names a
+controller (``make_controller(name).bind(env)``, ``make_controller(name, env=env)``, the
+command line's ``run``) gets the five-axis law, and every scoring path (``evaluate``,
+``run_episode``, ``compare``) reports the same metrics, orientation error included."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from agents import make_controller
+from agents.compare import compare
+from agents.five_axis_controllers import FiveAxisPDController, ISMCController
+from agents.pd import PDController
+from contour_env import ENV_ID
+from contour_env.cli import main
+from contour_env.evaluation import evaluate, run_episode
+
+
+@pytest.fixture(scope="module")
+def env():
+    return gym.make(ENV_ID, case="five-axis-line", ideal=True)
+
+
+def test_make_controller_takes_the_family_from_the_env(env):
+    assert isinstance(make_controller("pd", env=env), FiveAxisPDController)
+    assert isinstance(make_controller("ismc:rho=40", env=env), ISMCController)
+    assert isinstance(make_controller("pd"), PDController)  # no env: the feed-drive PD
+    with pytest.raises(ValueError, match="not available on the five-axis plant"):
+        make_controller("ccc", env=env)
+    with pytest.raises(ValueError, match="plant family"):
+        make_controller("pd", plant_family="five-axis", env=gym.make(ENV_ID, case="sharp-corner"))
+
+
+def test_feed_drive_pd_bound_to_the_five_axis_env_runs_the_joint_pd(env):
+    spec = "pd:p=600:d=50"
+    plain = make_controller(spec).bind(env)  # the feed-drive PD: forwards to the five-axis one
+    assert isinstance(plain._five_axis, FiveAxisPDController)
+    five = make_controller(spec, plant_family="five-axis").bind(env)
+    np.testing.assert_array_equal(plain._five_axis.Kp, five.Kp)
+    obs, _ = env.reset(seed=0)
+    a1, _ = plain.predict(obs, episode_start=np.ones(1, bool))
+    a2, _ = five.predict(obs, episode_start=np.ones(1, bool))
+    assert a1.shape == (5,) and np.array_equal(a1, a2)
+    np.testing.assert_array_equal(
+        plain.command(env.unwrapped.signals()), five.command(env.unwrapped.signals())
+    )
+    # rebinding to a feed-drive env drops the forwarding
+    plain.bind(gym.make(ENV_ID, case="sharp-corner"))
+    assert plain._five_axis is None
+    with pytest.raises(ValueError, match="not available on the five-axis plant"):
+        make_controller("ccc").bind(env)
+    with pytest.raises(ValueError, match="plant_family='five-axis'"):
+        PDController().bind(env)  # built directly: no spec to rebuild from
+
+
+def test_every_scoring_path_reports_the_orientation_error(env):
+    result = compare(["pd", "ismc"], case="five-axis-line", ideal=True)
+    for name in ("pd", "ismc"):
+        row = next(r for r in result["results"] if r["controller"] == name)
+        m = evaluate(env, make_controller(name))
+        assert m["rms_orientation_error_arcsec"] > 0
+        for key in ("rms_contour_error_um", "max_contour_error_um", "rms_orientation_error_arcsec"):
+            assert m[key] == pytest.approx(row[key], rel=1e-12)
+    rec = run_episode(env, make_controller("pd", env=env))
+    assert rec.orientation_error is not None and rec.orientation_error.shape == rec.time.shape
+    assert rec.tracking_error.shape[1] == 3  # the tool tip's tracking error
+
+
+def test_cli_run_on_the_five_axis_case(tmp_path, capsys):
+    js = tmp_path / "r.json"
+    for name in ("pd", "ismc"):
+        argv = ["run", "--case", "five-axis-line", "--ideal", "--controller", name]
+        assert main([*argv, "--json", str(js)]) == 0
+        m = json.loads(js.read_text())["metrics"]
+        assert m["rms_orientation_error_arcsec"] > 0
+        assert "rms_orientation_error_arcsec" in capsys.readouterr().out
+
+
+CAM_PROGRAM = """%
+O0716 (five-axis finishing pass, as a post-processor writes it: A/C in degrees)
+G21 G90 G94
+G00 X0. Y0. Z20. A0. C0.
+G01 Z2.5 F300.
+G01 X12.5 Y-4.2 Z1.8 A-6.25 C12.5 F900.
+X20.1 Y3.3 Z1.2 A-12.5 C35.
+X14.2 Y11.9 Z1.6 A-18.75 C70.2
+X2.0 Y14.5 Z2.4 A-12. C110.
+M30
+%
+"""
+
+
+def test_cli_runs_a_five_axis_gcode_program_with_plant_five_axis(tmp_path, capsys):
+    # the reader takes X Y Z A C words in joint space; a program nobody here tuned on
+    prog = tmp_path / "finish.nc"
+    prog.write_text(CAM_PROGRAM)
+    js = tmp_path / "g.json"
+    argv = ["run", "--plant", "five-axis", "--gcode", str(prog), "--controller", "pd"]
+    assert main([*argv, "--json", str(js)]) == 0
+    rec = json.loads(js.read_text())
+    m = rec["metrics"]
+    assert np.isfinite(m["rms_contour_error_um"]) and m["rms_contour_error_um"] > 0
+    assert np.isfinite(m["rms_orientation_error_arcsec"])
+    out = capsys.readouterr().out
+    assert "orientation" in out
+    # on a three-axis plant the A and C words are refused, naming them and the plant
+    assert main(["run", "--plant", "hsm2", "--gcode", str(prog), "--controller", "pd"]) != 0
+    assert "five-axis" in capsys.readouterr().err
