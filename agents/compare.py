@@ -146,6 +146,12 @@ def robustness(
     variation has stopped or where ε is not finite."""
     check_controllers(list(controllers))
     probe = gym.make(ENV_ID, **env_kwargs).unwrapped
+    if is_five_axis_env(probe):
+        raise ValueError(
+            "randomize: plant variations are not implemented for the five-axis plant (its "
+            "parameters are masses, inertias and offsets of a coupled model, not per-axis "
+            "drives); compare it on the nominal plant and with --ideal"
+        )
     variants = randomized(probe.plant.params, fraction, episodes, seed=seed)
     rows = []
     for name in controllers:

@@ -552,8 +552,15 @@ def plot_runs(
 
     ``records`` maps a label (controller) to its episode on the nominal plant; ``path`` is
     the PathGeometry followed; ``metrics`` maps a label to its row of scores (legend text).
-    Returns ``out``.
+    Returns ``out``. Five-axis runs (records with an orientation error) get their own figure
+    (:func:`contour_env.plotting_five_axis.plot_five_axis_runs`; no robustness panel).
     """
+    if any(r.orientation_error is not None for r in records.values()):
+        from .plotting_five_axis import plot_five_axis_runs
+
+        if robust:
+            raise ValueError("robust: no robustness panel for five-axis runs (--randomize)")
+        return plot_five_axis_runs(records, path, title, out, metrics)
     fig, _ = draw_runs(records, path, title, metrics, robust)
     try:
         atomic_save_figure(fig, out, dpi=110)

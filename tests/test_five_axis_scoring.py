@@ -110,3 +110,26 @@ def test_cli_runs_a_five_axis_gcode_program_with_plant_five_axis(tmp_path, capsy
     # on a three-axis plant the A and C words are refused, naming them and the plant
     assert main(["run", "--plant", "hsm2", "--gcode", str(prog), "--controller", "pd"]) != 0
     assert "five-axis" in capsys.readouterr().err
+
+
+def test_compare_and_run_plot_five_axis_runs(tmp_path):
+    from PIL import Image
+
+    png = tmp_path / "c.png"
+    argv = ["compare", "--case", "five-axis-line", "--ideal", "--controllers", "pd,ismc"]
+    assert main([*argv, "--plot", str(png)]) == 0
+    with Image.open(png) as im:
+        assert im.size[0] > 800 and im.size[1] > 500
+    png2 = tmp_path / "r.png"
+    argv = ["run", "--case", "five-axis-line", "--ideal", "--controller", "pd"]
+    assert main([*argv, "--plot", str(png2)]) == 0 and png2.stat().st_size > 10_000
+
+
+def test_five_axis_commands_without_a_five_axis_version_refuse_in_one_line(capsys):
+    argv = ["compare", "--case", "five-axis-line", "--controllers", "pd,ismc", "--randomize", "0.1"]
+    assert main(argv) != 0
+    assert "randomize: plant variations are not implemented for the five-axis plant" in (
+        capsys.readouterr().err
+    )
+    assert main(["compare", "--case", "five-axis-line", "--controllers", "ccc"]) != 0
+    assert "not available on the five-axis plant; known there: pd, ismc" in capsys.readouterr().err
