@@ -633,6 +633,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_rl import add_rl_commands  # train, evaluate, models (residual RL agents)
 
     add_rl_commands(sub)
+    from .cli_benchmark import add_benchmark_command  # the whole benchmark and its report
+
+    add_benchmark_command(sub)
     return parser
 
 

@@ -1,0 +1,15 @@
+"""``contour-env benchmark``: the whole benchmark in one command, and a report people read.
+
+- :mod:`.suite`: what the ``quick``, ``paper`` and ``full`` suites run (:class:`RunSpec`);
+- :mod:`.published`: the seed papers' published figures, as data;
+- :mod:`.runs`: one run, a pure function of its spec;
+- :mod:`.runner`: the runs serially, on local processes (``--workers N``) or as Ray tasks
+  (``--ray auto|ADDRESS``), with identical figures;
+- :mod:`.report`: ``results.json``, ``report.md``, ``report.html`` and the figures.
+"""
+
+from __future__ import annotations
+
+from .suite import SUITES, RunSpec, get_suite
+
+__all__ = ["SUITES", "RunSpec", "get_suite"]
