@@ -290,6 +290,17 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         "prior": max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0),
     }
 
+    def write_curve(complete: bool) -> None:
+        atomic_write_json(
+            out / "learning_curve.json",
+            {
+                "base": cfg.base,
+                "base_rms_contour_error_um": evaluator.base_rms,
+                "curve": curve,
+                "complete": complete,
+            },
+        )
+
     def train_s() -> float:
         return clock["prior"] + (time.perf_counter() - clock["start"] - clock["eval"])
 
@@ -335,15 +346,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             if evaluator is not None:
                 # the curve so far, so that an interrupted or long run can be read while it
                 # runs (rewritten with the final point at the end)
-                atomic_write_json(
-                    out / "learning_curve.json",
-                    {
-                        "base": cfg.base,
-                        "base_rms_contour_error_um": evaluator.base_rms,
-                        "curve": curve,
-                        "complete": False,
-                    },
-                )
+                write_curve(complete=False)
             clock["eval"] += time.perf_counter() - t_in
 
         def _on_step(self) -> bool:
@@ -437,15 +440,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     }
     summary.update(_write_kept_model(out, cfg, final_dir, best, validator, val_curve, summary))
     if evaluator is not None:
-        atomic_write_json(
-            out / "learning_curve.json",
-            {
-                "base": cfg.base,
-                "base_rms_contour_error_um": evaluator.base_rms,
-                "curve": curve,
-                "complete": True,
-            },
-        )
+        write_curve(complete=True)
         title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or summary['gcode'])}"
         plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")
     for root in (ckpt_root, out / "best"):
