@@ -62,7 +62,7 @@ from gymnasium.vector import AutoresetMode, VectorWrapper
 from gymnasium.vector.utils import batch_space
 
 from .base import Controller, _core_of
-from .registry import controller_names, make_controller
+from .registry import FIVE_AXIS_CONTROLLERS, controller_names, make_controller, plant_family_of
 
 DEFAULT_SCALE = 0.05
 # what of the env observation the agent sees (see observation_fields)
@@ -152,11 +152,12 @@ def make_base(base, env, base_kwargs=None) -> Controller:
     """A base controller bound to ``env``: a registry name (see
     :func:`agents.registry.controller_names`) or a :class:`Controller` instance."""
     if isinstance(base, str):
-        if base not in controller_names():
-            raise ValueError(
-                f"base: unknown controller {base!r}; known: {', '.join(controller_names())}"
-            )
-        ctrl = make_controller(base, **(base_kwargs or {}))
+        # the controllers of the env's plant family (pd and ismc on the five-axis plant)
+        five_axis = plant_family_of(env) == "five-axis"
+        known = list(FIVE_AXIS_CONTROLLERS) if five_axis else controller_names()
+        if base not in known:
+            raise ValueError(f"base: unknown controller {base!r}; known: {', '.join(known)}")
+        ctrl = make_controller(base, env=env, **(base_kwargs or {}))
     elif isinstance(base, Controller):
         ctrl = base
     else:

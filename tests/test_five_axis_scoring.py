@@ -133,3 +133,31 @@ def test_five_axis_commands_without_a_five_axis_version_refuse_in_one_line(capsy
     )
     assert main(["compare", "--case", "five-axis-line", "--controllers", "ccc"]) != 0
     assert "not available on the five-axis plant; known there: pd, ismc" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("base", ["pd", "ismc"])
+def test_five_axis_controllers_are_residual_bases(base):
+    from agents.residual import ResidualWrapper
+
+    # a zero residual is the base alone, step for step
+    w = ResidualWrapper(gym.make(ENV_ID, case="five-axis-line", ideal=True), base)
+    w.reset(seed=0)
+    ref = gym.make(ENV_ID, case="five-axis-line", ideal=True)
+    ctrl = make_controller(base, env=ref).bind(ref)
+    obs, _ = ref.reset(seed=0)
+    zero = np.zeros(w.action_space.shape, dtype=np.float32)
+    for k in range(400):
+        _, r, _, _, info = w.step(zero)
+        act, _ = ctrl.predict(obs, episode_start=np.array([k == 0]))
+        obs, r_ref, _, _, info_ref = ref.step(act)
+        assert r == r_ref and info["contour_error"] == info_ref["contour_error"]
+    # a residual moves the tool: the wrapper's action reaches the plant
+    errors = {}
+    for a in (0.0, 0.5):
+        w.reset(seed=0)
+        for _ in range(50):
+            _, _, _, _, info = w.step(np.full(w.action_space.shape, a, dtype=np.float32))
+        errors[a] = info["contour_error"]
+    assert errors[0.5] > 10 * errors[0.0]
+    with pytest.raises(ValueError, match="base: unknown controller 'ccc'; known: pd, ismc"):
+        ResidualWrapper(gym.make(ENV_ID, case="five-axis-line", ideal=True), "ccc")
