@@ -229,20 +229,26 @@ class EnvConfig:
         ) / self.contour_error_scale_m + self.w_effort
 
 
-def _checked_plant_params(plant_params, plant, n_envs: int) -> list:
-    """``plant_params`` as a list of n_envs PlantParams that fit the case's plant (axes, servo
-    period, state layout, delay, substeps: the kernel runs them with the case's reference and
-    settings) and lie in the documented ranges (params.PARAM_RANGES); ValueError otherwise."""
-    if isinstance(plant_params, (PlantParams, str, bytes)) or not hasattr(plant_params, "__len__"):
+def one_params_per_env(plant_params, cls, n_envs: int) -> list:
+    """``plant_params`` as a list of n_envs items (each to be a ``cls``, checked by the
+    caller); ValueError naming the parameter for a single item, a string or a wrong count."""
+    name = cls.__name__
+    if isinstance(plant_params, (cls, str, bytes)) or not hasattr(plant_params, "__len__"):
         raise ValueError(
-            f"plant_params: a list of one PlantParams per env ({n_envs}), got "
+            f"plant_params: a list of one {name} per env ({n_envs}), got "
             f"{type(plant_params).__name__}"
         )
     plant_params = list(plant_params)
     if len(plant_params) != n_envs:
-        raise ValueError(
-            f"plant_params: one PlantParams per env ({n_envs}), got {len(plant_params)}"
-        )
+        raise ValueError(f"plant_params: one {name} per env ({n_envs}), got {len(plant_params)}")
+    return plant_params
+
+
+def _checked_plant_params(plant_params, plant, n_envs: int) -> list:
+    """``plant_params`` as a list of n_envs PlantParams that fit the case's plant (axes, servo
+    period, state layout, delay, substeps: the kernel runs them with the case's reference and
+    settings) and lie in the documented ranges (params.PARAM_RANGES); ValueError otherwise."""
+    plant_params = one_params_per_env(plant_params, PlantParams, n_envs)
     base = plant.params
     want = (base.n_axes, base.servo_period_s, state_size(base))
     for b, p in enumerate(plant_params):

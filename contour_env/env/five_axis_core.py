@@ -63,6 +63,7 @@ import numpy as np
 
 from ..plants.five_axis import FiveAxisParams, gravity, pack_five_axis
 from . import five_axis_kernel as K5
+from .core import one_params_per_env
 
 # half-width of the nearest-point search (reference samples) around the last nearest one;
 # the tip moves about one sample per step, so 64 samples leave a wide margin while it lags
@@ -400,18 +401,7 @@ class FiveAxisCore:
 
 
 def _checked_five_axis_params(plant_params, base, n_envs: int) -> list:
-    if isinstance(plant_params, (FiveAxisParams, str, bytes)) or not hasattr(
-        plant_params, "__len__"
-    ):
-        raise ValueError(
-            f"plant_params: a list of one FiveAxisParams per env ({n_envs}), got "
-            f"{type(plant_params).__name__}"
-        )
-    plant_params = list(plant_params)
-    if len(plant_params) != n_envs:
-        raise ValueError(
-            f"plant_params: one FiveAxisParams per env ({n_envs}), got {len(plant_params)}"
-        )
+    plant_params = one_params_per_env(plant_params, FiveAxisParams, n_envs)
     for b, p in enumerate(plant_params):
         if not isinstance(p, FiveAxisParams):
             raise ValueError(

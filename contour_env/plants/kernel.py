@@ -313,6 +313,18 @@ def _pow2_floor(n):
 
 
 @njit(cache=True, inline="always")
+def _correct(S, s, mat_h, row, nl, p, i, w0, t_end, w_extra, ns, ec):
+    # corrector of the first-order hold: the force at the predicted end state (row s of S) in
+    # place of w0 there, added through the Gb column (the map is linear in the end value)
+    v1 = S[s, 1]
+    w1 = -(
+        friction_force(v1, nl[p, i, NL_FC], nl[p, i, NL_FS], nl[p, i, NL_VS])
+        + (external_force_near(S[s, 0], t_end, nl, p, i, ec) - w_extra)
+    )
+    _add_gb(S, s, mat_h, row, i, w1 - w0, ns)
+
+
+@njit(cache=True, inline="always")
 def _hold_whole_period(Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns, ec):
     # held by static friction over the whole period if the non-friction force stays within
     # f_s at both ends of the period (the usual case at rest: no substeps needed)
@@ -352,19 +364,13 @@ def _hold(Z, zr, u, wnf, f_nf, t_end, c, mat_h, ph, cont, nl, p, i, S, s, w_extr
 def _break_away(Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns, ec):
     # one fine substep from rest in the direction of the net force, friction starting at f_s;
     # returns the new stuck flag (1.0 if the mass stopped again within the substep)
-    fc = nl[p, i, NL_FC]
     fs = nl[p, i, NL_FS]
-    vs = nl[p, i, NL_VS]
     direction = 1.0 if f_nf > 0.0 else -1.0
     w0 = wnf - direction * fs
     _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
     v1 = S[s, 1]
     if v1 * direction > 0.0:
-        w1 = -(
-            friction_force(v1, fc, fs, vs)
-            + (external_force_near(S[s, 0], t + h, nl, p, i, ec) - w_extra)
-        )
-        _add_gb(S, s, mat_h, ph, i, w1 - w0, ns)
+        _correct(S, s, mat_h, ph, nl, p, i, w0, t + h, w_extra, ns, ec)
     _copy_row(S, s, Z, zr, ns)
     if Z[zr, 1] * direction <= 0.0:
         Z[zr, 1] = 0.0
@@ -387,11 +393,7 @@ def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns, ec):
     v1 = S[s, 1]
     if v0 * v1 <= 0.0:
         return False
-    w1 = -(
-        friction_force(v1, fc, fs, vs)
-        + (external_force_near(S[s, 0], t + hc, nl, p, i, ec) - w_extra)
-    )
-    _add_gb(S, s, mat_h, pc, i, w1 - w0, ns)
+    _correct(S, s, mat_h, pc, nl, p, i, w0, t + hc, w_extra, ns, ec)
     v2 = S[s, 1]
     if v0 * v2 <= 0.0:
         return False
@@ -419,11 +421,7 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec
     _advance(Z, zr, S, s, mat_h, ph, i, u, w0, w0, ns)
     v1 = S[s, 1]
     if v0 * v1 > 0.0:
-        w1 = -(
-            friction_force(v1, fc, fs, vs)
-            + (external_force_near(S[s, 0], t + h, nl, p, i, ec) - w_extra)
-        )
-        _add_gb(S, s, mat_h, ph, i, w1 - w0, ns)
+        _correct(S, s, mat_h, ph, nl, p, i, w0, t + h, w_extra, ns, ec)
         v1 = S[s, 1]
     if v0 * v1 > 0.0 or fs == 0.0 or v0 == 0.0:
         _copy_row(S, s, Z, zr, ns)
