@@ -1,6 +1,7 @@
 """``contour-env benchmark``: a suite's runs, ``results.json``, ``report.md``, ``report.html``.
 
-    contour-env benchmark [--suite quick|paper|full] --out DIR [--workers N] [--ray auto|ADDRESS]
+    contour-env benchmark [--suite quick|paper|full|readme] --out DIR [--workers N]
+                          [--ray auto|ADDRESS]
 
 :func:`add_benchmark_command` registers it on the ``contour-env`` parser; :func:`main` runs it
 standalone (``python -m contour_env.cli_benchmark ...``).
@@ -25,7 +26,8 @@ def add_benchmark_command(subparsers) -> argparse.ArgumentParser:
         "--suite",
         default="quick",
         help=f"which runs: {', '.join(SUITES)} (default quick: under 2 min; paper: the seed "
-        "papers' published comparisons; full: paper + robustness + ILC + residual agents)",
+        "papers' published comparisons; full: paper + robustness + ILC + residual agents; "
+        "readme: the runs behind the README's tables, readme:NAME[,NAME] some of them)",
     )
     p.add_argument(
         "--out",

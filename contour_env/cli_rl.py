@@ -90,11 +90,33 @@ def config_from_args(args):
     return TrainConfig(**kw)
 
 
-def cmd_train(args) -> int:
+def apply_train_defaults(args) -> None:
+    """The defaults ``contour-env train`` fills in after parsing (residual scale, penalty)."""
+    from agents.residual import DEFAULT_SCALE
+
+    if args.scale is None:
+        args.scale = DEFAULT_SCALE
+    if args.residual_penalty is None:
+        from agents.rl.config import TrainConfig
+
+        args.residual_penalty = TrainConfig.__dataclass_fields__["residual_penalty"].default
+
+
+def train_from_args(args, log=print):
+    """``contour-env train``'s training: ``(config, summary)`` of :func:`agents.rl.train` on the
+    parsed arguments (also each trial of ``contour-env train --sweep``)."""
     from agents.rl import train
 
+    if not args.out:
+        raise ValueError("--out: give the output DIR (model, config, curve, checkpoints)")
+    apply_train_defaults(args)
     cfg = config_from_args(args)
-    res = train(cfg, args.out, resume=args.resume, progress=not args.no_progress)
+    res = train(cfg, args.out, resume=args.resume, progress=not args.no_progress, log=log)
+    return cfg, res
+
+
+def cmd_train(args) -> int:
+    cfg, res = train_from_args(args)
     print(f"trained {res['timesteps']} timesteps in {res['wall_s']:.1f} s")
     if res["final_rms_contour_error_um"] is not None:
         print(
@@ -186,7 +208,11 @@ def add_rl_commands(sub) -> None:
         "--timesteps", type=int, default=20_000, help="agent steps in total (default 20000)"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of every generator (default 0)")
-    p.add_argument("--out", required=True, help="output DIR (model, config, curve, checkpoints)")
+    p.add_argument(
+        "--out",
+        help="output DIR (model, config, curve, checkpoints); required, except with --sweep "
+        "(its out: key)",
+    )
     p.add_argument(
         "--resume",
         action="store_true",
@@ -300,6 +326,21 @@ def add_rl_commands(sub) -> None:
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--sweep",
+        metavar="FILE",
+        help="train a grid of runs (cases × seeds × algorithms, …) described by this YAML file "
+        "into one folder, with --out DIR or its out: key (docs/SWEEP.md); the other train "
+        "options go in the file",
+    )
+    p.add_argument(
+        "--ray",
+        default=None,
+        metavar="auto|ADDRESS",
+        help="with --sweep: run the trials with Ray Tune, auto (a running cluster, else a local "
+        'instance) or a cluster ADDRESS; needs pip install -e ".[ray]" (default: one after '
+        "another in this process)",
+    )
     p.set_defaults(func=_train_entry)
 
     p = sub.add_parser("evaluate", help="score a trained residual agent against its base")
@@ -314,12 +355,10 @@ def add_rl_commands(sub) -> None:
 
 
 def _train_entry(args: argparse.Namespace) -> int:
-    from agents.residual import DEFAULT_SCALE
+    if args.sweep is not None:
+        from agents.rl.sweep import cmd_sweep
 
-    if args.scale is None:
-        args.scale = DEFAULT_SCALE
-    if args.residual_penalty is None:
-        from agents.rl.config import TrainConfig
-
-        args.residual_penalty = TrainConfig.__dataclass_fields__["residual_penalty"].default
+        return cmd_sweep(args)
+    if args.ray is not None:
+        raise ValueError("--ray: runs the trials of --sweep FILE; give --sweep too")
     return cmd_train(args)

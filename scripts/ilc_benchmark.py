@@ -19,13 +19,14 @@ Trial i of seed s runs with seed 1000 s + i − 1; ``--seeds`` averages over see
 condition differs per seed, the repeatable one does not). ``--tuning`` runs the two corners
 the controllers' defaults were chosen on instead of ``--cases`` (:func:`tuning_paths`: never
 the scored ``sharp-corner``). The JSON (written atomically) holds the rows and comparisons;
-``--markdown`` also prints the README's table (:func:`format_markdown`).
+``--markdown`` also prints the README's table (:func:`format_markdown`, which renders the
+README's ``ilc_table`` from the ``ilc`` runs of ``contour-env benchmark --suite readme`` too:
+10 trials, seed 0, the defaults here).
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import gymnasium as gym
@@ -35,6 +36,7 @@ import contour_env  # noqa: F401  (registers the env)
 from agents import make_controller
 from agents.registry import LEARNING_CONTROLLERS
 from agents.repeated_batch import run_batch
+from contour_env.benchmark.readme_tables import ilc_markdown as format_markdown
 from contour_env.cases import get_case
 from contour_env.io import atomic_write_json
 from contour_env.metrics import below_count, encoder_resolution_um, format_um
@@ -194,38 +196,6 @@ def run_benchmark(cases, conditions, names, n, seeds, noise_m, log=print):
                 )
     log(f"({time.time() - t0:.0f} s)")
     return rows, comparisons
-
-
-def _md_um(x, resolution_um=None) -> str:
-    """A table figure: 4 significant digits, at most 3 decimals (98.63, 2.713, 0.803),
-    ``≤R (enc)`` below one encoder count, ``failed`` for a trial without metrics."""
-    if x is None:
-        return "failed"
-    decimals = min(3, max(0, 3 - math.floor(math.log10(abs(x))))) if x else 3
-    return format_um(x, resolution_um, f".{decimals}f")
-
-
-def format_markdown(rows: list[dict], iterations: int) -> str:
-    """The rows as the README's markdown table (case and condition written once per group)."""
-    lines = [
-        f"| case | condition | law | trial 1 max / RMS | trial {iterations} max / RMS |",
-        "|---|---|---|---|---|",
-    ]
-    last = None
-    for r in rows:
-        group = (r["case"], r["condition"])
-        case, cond = ("", "") if group == last else group
-        last = group
-        res = r["encoder_resolution_um"]
-        cells = [
-            case,
-            cond,
-            r["controller"],
-            f"{_md_um(r['first_max_um'], res)} / {_md_um(r['first_rms_um'], res)}",
-            f"{_md_um(r['last_max_um'], res)} / {_md_um(r['last_rms_um'], res)}",
-        ]
-        lines.append("|" + "|".join(f" {c} " if c else " " for c in cells) + "|")
-    return "\n".join(lines)
 
 
 def main(argv=None) -> int:

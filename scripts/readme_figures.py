@@ -1,40 +1,51 @@
-"""Regenerate the README's generated tables in place, from the scripts that compute them.
+"""Regenerate the README's generated tables in place, from a benchmark report.
 
     python scripts/readme_figures.py [--only NAME[,NAME...]] [--check] [--readme README.md]
+        [--report DIR | --out DIR [--workers N]]
 
-Each generated table sits between two HTML comments (invisible on GitHub)::
+The tables come from the records of ``contour-env benchmark --suite readme`` (the ``readme``
+suite runs exactly what the tables need, :data:`contour_env.benchmark.suite.README_TABLES`):
+without ``--report`` the script runs ``contour-env benchmark --suite readme --out DIR
+[--workers N]`` first (``DIR`` default ``out/readme-report``; with ``--only``, the suite
+``readme:NAME[,NAME...]`` of those tables' runs only), with ``--report DIR`` it reads the
+``results.json`` of an earlier run. Each table is rendered from the records
+(:mod:`contour_env.benchmark.readme_tables`; a run the report lacks, or one that failed, is an
+error). Each generated table sits between two HTML comments (invisible on GitHub)::
 
     <!-- BEGIN generated: NAME (scripts/readme_figures.py; DATE, commit HASH) -->
     | ... the table ... |
     <!-- END generated: NAME -->
 
-and is replaced by what its generator prints now; the BEGIN line is stamped with the date and
-the commit (``git rev-parse --short HEAD``, ``-dirty`` when tracked files have uncommitted
-changes). Text outside the markers is never touched, and the README is written atomically.
+and is replaced by its rendering; the BEGIN line is stamped with the date and the commit of
+the report (its ``meta``: the UTC date of its timestamp, ``code_version``'s commit, short,
+``-dirty`` when tracked files had uncommitted changes). Text outside the markers is never
+touched, and the README is written atomically.
 
-Generators (all run the project's own scoring; times on a 2-core machine):
+Tables (runs of the ``readme`` suite; times on a 2-core machine, serial):
 
-- ``controller_table``: default gains and loop margins (``scripts/controller_table.py``, ~1 min);
-- ``lee2012_table``: the defaults on Lee 2012's circles beside Tables 2–3
-  (``scripts/lee2012_table.py``, ~10 s);
-- ``residual_table``: the shipped residual agents against their bases
-  (``scripts/residual_benchmark.py --markdown``, several minutes: lm-circle3d is 159 000 steps);
-- ``ilc_table``: the repeated-batch ILC benchmark (``scripts/ilc_benchmark.py --markdown``,
-  ~40 s);
+- ``controller_table``: default gains and loop margins (``design`` runs, ~1 min;
+  ``scripts/controller_table.py`` prints it alone);
+- ``lee2012_table``: the defaults on Lee 2012's circles beside Tables 2–3 (~10 s;
+  ``scripts/lee2012_table.py``);
+- ``residual_table``: the shipped residual agents against their bases (``residual`` runs,
+  several minutes: lm-circle3d is 159 000 steps; ``scripts/residual_benchmark.py --markdown``);
+- ``ilc_table``: the repeated-batch ILC benchmark, 10 trials, seed 0 (~40 s;
+  ``scripts/ilc_benchmark.py --markdown``);
 - ``corner_blend_table``: pd, ccc and adaptive-ccc on ``corner-blend`` over seeds 0–4
-  (``scripts/corner_blend_table.py``, ~20 s).
+  (~20 s; ``scripts/corner_blend_table.py``).
 
-``--only`` runs the named ones; ``--check`` writes nothing and exits 1 when a table would
+``--only`` renders the named ones; ``--check`` writes nothing and exits 1 when a table would
 change (the stamps are ignored: a table is stale when its content differs, not its date).
-A marker in the README without a generator, or a generator named in ``--only`` without its
-markers, is an error.
+A table that did not change keeps its stamp. A marker in the README without a table, or a
+table named in ``--only`` without its markers, is an error.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import importlib.util
+import functools
+import json
 import re
 import subprocess
 import sys
@@ -43,6 +54,12 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+REPORT_DIR = ROOT / "out" / "readme-report"
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from contour_env.benchmark import readme_tables  # noqa: E402
+from contour_env.benchmark.suite import README_TABLES  # noqa: E402
 
 MARKER = re.compile(
     r"(?P<begin><!-- BEGIN generated: (?P<name>[\w-]+)(?P<stamp>[^\n]*?)-->\n)"
@@ -51,64 +68,49 @@ MARKER = re.compile(
     re.DOTALL,
 )
 
-
-def _script(name: str):
-    """A module of scripts/ (not a package) loaded from its file."""
-    if str(ROOT) not in sys.path:
-        sys.path.insert(0, str(ROOT))
-    file = ROOT / "scripts" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(f"_readme_{name}", file)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+# where the report comes from (set by main) and, once read, its results.json
+SOURCE: dict = {"report": None, "out": REPORT_DIR, "workers": 1, "only": None, "data": None}
 
 
-def controller_table() -> str:
-    return "\n".join(_script("controller_table").rows())
+def run_benchmark(out, tables=None, workers=1) -> dict:
+    """``contour-env benchmark --suite readme[:TABLES] --out OUT --workers N``; its
+    results.json. A failed run is a ``RuntimeError``."""
+    from contour_env import cli_benchmark
+
+    suite = "readme" if tables is None else "readme:" + ",".join(tables)
+    argv = ["--suite", suite, "--out", str(out), "--workers", str(workers)]
+    print(f"contour-env benchmark {' '.join(argv)}", flush=True)
+    if cli_benchmark.main(argv) != 0:
+        raise RuntimeError(f"contour-env benchmark --suite {suite} failed (see {out}/report.md)")
+    return read_report(out)
 
 
-def lee2012_table() -> str:
-    mod = _script("lee2012_table")
-    return "\n".join(mod.table(list(mod.LEE)))
+def read_report(path) -> dict:
+    """A report's results.json (``path``: the file or its folder)."""
+    path = Path(path)
+    file = path / "results.json" if path.is_dir() else path
+    if not file.is_file():
+        raise ValueError(f"--report: {file}: no such file (run contour-env benchmark first)")
+    return json.loads(file.read_text(encoding="utf-8"))
 
 
-def residual_table() -> str:
-    from agents.rl.models import list_models
-
-    mod = _script("residual_benchmark")
-    rows = []
-    for r in list_models():
-        if "error" not in r:
-            rows += mod.benchmark_model(Path(r["path"]))
-    return mod.format_markdown(rows)
-
-
-def ilc_table() -> str:
-    mod = _script("ilc_benchmark")
-    n = 10
-    rows, _ = mod.run_benchmark(
-        ["sharp-corner", "hsm2-circle-II"],
-        list(mod.CONDITIONS),
-        list(mod.LEARNING_CONTROLLERS),
-        n,
-        1,
-        mod.DEFAULT_NOISE_M,
-        log=lambda s: None,
-    )
-    return mod.format_markdown(rows, n)
+def report() -> dict:
+    """The report the tables come from: read once (``--report``) or run once."""
+    if SOURCE["data"] is None:
+        if SOURCE["report"] is not None:
+            SOURCE["data"] = read_report(SOURCE["report"])
+        else:
+            SOURCE["data"] = run_benchmark(SOURCE["out"], SOURCE["only"], SOURCE["workers"])
+    return SOURCE["data"]
 
 
-def corner_blend_table() -> str:
-    mod = _script("corner_blend_table")
-    return mod.format_markdown(mod.measure(["pd", "ccc", "adaptive-ccc"], 5), 5)
+def render(name: str) -> str:
+    """The README table ``name`` from the report's records."""
+    return readme_tables.render(name, report()["records"])
 
 
 GENERATORS: dict[str, Callable[[], str]] = {
-    "controller_table": controller_table,
-    "lee2012_table": lee2012_table,
-    "residual_table": residual_table,
-    "ilc_table": ilc_table,
-    "corner_blend_table": corner_blend_table,
+    name: functools.partial(render, name) for name in README_TABLES
 }
 
 
@@ -130,6 +132,11 @@ def git_commit(root: Path = ROOT) -> str:
 
 
 def stamp(date: str | None = None, commit: str | None = None) -> str:
+    """The BEGIN line's stamp: the date and commit of the report the tables came from (when
+    one was read), else today and the checkout's commit."""
+    if SOURCE["data"] is not None and (date is None or commit is None):
+        rdate, rcommit = readme_tables.report_stamp(SOURCE["data"])
+        date, commit = date or rdate, commit or rcommit
     date = date or _dt.date.today().isoformat()
     commit = commit or git_commit()
     return f" (scripts/readme_figures.py; {date}, commit {commit}) "
@@ -217,12 +224,29 @@ def main(argv=None) -> int:
         "--check", action="store_true", help="exit 1 if a table would change; write nothing"
     )
     ap.add_argument("--readme", default=str(README), help="the README to update")
+    ap.add_argument(
+        "--report",
+        metavar="DIR",
+        help="render from this contour-env benchmark --suite readme report (its results.json) "
+        "instead of running the suite",
+    )
+    ap.add_argument(
+        "--out",
+        metavar="DIR",
+        default=str(REPORT_DIR),
+        help="where the suite's report is written when it is run (default out/readme-report)",
+    )
+    ap.add_argument("--workers", default="1", metavar="N", help="local processes for the runs")
     args = ap.parse_args(argv)
     only = [n.strip() for n in args.only.split(",") if n.strip()] if args.only else None
+    SOURCE.update(report=args.report, out=args.out, workers=args.workers, only=only, data=None)
     try:
         return update_readme(args.readme, only=only, check=args.check)
     except ValueError as exc:
         ap.error(str(exc))
+    except RuntimeError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -6,100 +6,37 @@ For every model DIR (default: the shipped agents, ``contour-env models``) and ev
 contour of its plant, the agent and its base are scored with the project's one scoring
 function (:func:`contour_env.evaluation.evaluate`, seed 0) and the ratios printed:
 RMS contour error agent / base, and RMS effort agent / base per axis (the effort budget is
-+10 %). Test contours:
++10 %). Test contours (:func:`contour_env.benchmark.residual.test_targets`):
 
 - the agent's training cases (``agent.json``), and for ``hsm2`` all three Lee 2012 circles;
 - ``polygon``: the 40 mm square with four sharp 90° corners (``contour_env/data/
   square_corners.nc``, exact stop at each corner), at the plant's case feedrate;
-- ``spline``: an open C² spline through five fixed points (:data:`SPLINE_POINTS`, scaled
+- ``spline``: an open C² spline through five fixed points (``SPLINE_POINTS``, scaled
   to the plant's workspace), at the plant's case feedrate.
 
 Neither the polygon nor the spline is a training path of the shipped agents (they are trained
-on circles), so these rows measure generalisation.
+on circles), so these rows measure generalisation. The scoring is
+:mod:`contour_env.benchmark.residual`, the ``residual`` runs of ``contour-env benchmark
+--suite readme``, from whose report the README's table is rendered the same way
+(:func:`format_markdown`).
 """
 
 from __future__ import annotations
 
 import argparse
-from importlib.resources import files
 from pathlib import Path
 
-import gymnasium as gym
-import numpy as np
-
 import contour_env  # noqa: F401  (registers the env)
-from agents.registry import make_controller
-from agents.residual import ResidualAgent, read_model_metadata
 from agents.rl.models import list_models
-from contour_env import ENV_ID
-from contour_env.cases import case_names, get_case
-from contour_env.evaluation import evaluate
-from contour_env.io import atomic_write_json
-from contour_env.paths import spline
-
-# unit-square points of the test spline (scaled by SPLINE_SIZE_M of the plant); not a circle
-SPLINE_POINTS = np.array(
-    [[0.0, 0.0, 0.0], [0.35, 0.6, 0.0], [0.7, 0.15, 0.0], [1.0, 0.8, 0.0], [0.55, 1.0, 0.0]]
+from contour_env.benchmark.readme_tables import residual_markdown as format_markdown
+from contour_env.benchmark.residual import (  # noqa: F401  (this script's API)
+    EFFORT_FLOOR_N,
+    SPLINE_POINTS,
+    SPLINE_SIZE_M,
+    benchmark_model,
+    test_targets,
 )
-# workspace scale of the test spline per plant, m
-# RMS effort below which an axis counts as idle for the effort ratio, N
-EFFORT_FLOOR_N = 1e-6
-SPLINE_SIZE_M = {"hsm2": 0.15, "jee-triaxial": 0.08, "linear-motor": 0.08, "friction-table": 0.04}
-
-
-def _plant_feed(plant: str) -> float:
-    """The feedrate of the plant's first named case, m/s."""
-    for c in case_names():
-        spec = get_case(c)
-        if spec.plant == plant:
-            return spec.feedrate_m_s
-    raise ValueError(f"plant: no named case uses {plant!r}")
-
-
-def test_targets(meta: dict) -> list[tuple[str, dict]]:
-    """(label, env kwargs) of every test contour for the agent described by ``meta``."""
-    plant = meta["plant"]
-    cases = list(meta.get("cases") or [])
-    if plant == "hsm2":
-        cases = sorted(set(cases) | {"hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III"})
-    targets = [(c, {"case": c}) for c in cases]
-    feed = _plant_feed(plant)
-    polygon = str(files("contour_env") / "data" / "square_corners.nc")
-    targets.append(("polygon", {"plant": plant, "path": polygon, "feedrate_m_s": feed}))
-    pts = SPLINE_POINTS * SPLINE_SIZE_M[plant]
-    targets.append(("spline", {"plant": plant, "path": spline(pts), "feedrate_m_s": feed}))
-    return targets
-
-
-def benchmark_model(model_dir) -> list[dict]:
-    meta = read_model_metadata(model_dir)
-    rows = []
-    for label, kw in test_targets(meta):
-        base = evaluate(gym.make(ENV_ID, **kw), make_controller(meta["base"]))
-        agent = evaluate(gym.make(ENV_ID, **kw), ResidualAgent(model_dir))
-        # ratio per axis; None where the base does not use the axis (e.g. z on a planar path)
-        effort = [
-            a / b if b > EFFORT_FLOOR_N else None
-            for a, b in zip(agent["rms_effort"], base["rms_effort"], strict=True)
-        ]
-        rows.append(
-            {
-                "model": str(model_dir),
-                "plant": meta["plant"],
-                "base": meta["base"],
-                "target": label,
-                "base_rms_contour_error_um": base["rms_contour_error_um"],
-                "agent_rms_contour_error_um": agent["rms_contour_error_um"],
-                "base_max_contour_error_um": base["max_contour_error_um"],
-                "agent_max_contour_error_um": agent["max_contour_error_um"],
-                "rms_ratio": agent["rms_contour_error_um"] / base["rms_contour_error_um"],
-                "base_rms_effort": base["rms_effort"],
-                "agent_rms_effort": agent["rms_effort"],
-                "effort_ratio": effort,
-                "agent_completed": bool(agent["completed"]),
-            }
-        )
-    return rows
+from contour_env.io import atomic_write_json
 
 
 def format_rows(rows: list[dict]) -> str:
@@ -118,28 +55,6 @@ def format_rows(rows: list[dict]) -> str:
             f"{r['rms_ratio']:7.3f}{r['base_max_contour_error_um']:12.2f}"
             f"{r['agent_max_contour_error_um']:8.2f}  [{eff}]"
             + ("" if r["agent_completed"] else "  (agent stopped by the crash guard)")
-        )
-    return "\n".join(lines)
-
-
-def format_markdown(rows: list[dict]) -> str:
-    """The rows as the README's markdown table."""
-    lines = [
-        "| agent (base) | contour | base RMS / max µm | agent RMS / max µm | RMS ratio "
-        "| effort ratio per axis |",
-        "|---|---|---|---|---|---|",
-    ]
-    last = None
-    for r in rows:
-        label = "" if r["model"] == last else f"`{r['plant']}` ({r['base']})"
-        last = r["model"]
-        eff = ", ".join(
-            f"{e:.3f}" if e is not None else "(idle in base)" for e in r["effort_ratio"]
-        )
-        lines.append(
-            f"| {label} | {r['target']} | {r['base_rms_contour_error_um']:.3f} / "
-            f"{r['base_max_contour_error_um']:.2f} | {r['agent_rms_contour_error_um']:.3f} / "
-            f"{r['agent_max_contour_error_um']:.2f} | {r['rms_ratio']:.3f} | {eff} |"
         )
     return "\n".join(lines)
 

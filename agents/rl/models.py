@@ -18,7 +18,8 @@ MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 def list_models(root=None) -> list[dict]:
     """One row per model DIR directly under ``root`` (default: the shipped agents): name,
     path, plant, axes, algo, base, cases, timesteps, scale. Unreadable folders are reported
-    with an ``error`` key instead of being skipped silently."""
+    with an ``error`` key instead of being skipped silently; folders whose name starts with
+    ``.`` or ``_`` (a sweep's ``_ray`` and ``_logs``) are not models and are skipped."""
     if root is not None and not Path(root).is_dir():
         what = "not a directory" if Path(root).exists() else "no such directory"
         raise ValueError(f"--dir: {root}: {what}")
@@ -26,7 +27,7 @@ def list_models(root=None) -> list[dict]:
     if not root.is_dir():
         return []
     rows = []
-    for d in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+    for d in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))):
         try:
             m = read_model_metadata(d)
         except (ValueError, FileNotFoundError) as exc:

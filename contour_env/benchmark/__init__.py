@@ -1,6 +1,10 @@
 """``contour-env benchmark``: the whole benchmark in one command, and a report people read.
 
-- :mod:`.suite`: what the ``quick``, ``paper`` and ``full`` suites run (:class:`RunSpec`);
+- :mod:`.suite`: what the ``quick``, ``paper``, ``full`` and ``readme`` suites run
+  (:class:`RunSpec`);
+- :mod:`.design`, :mod:`.residual`: the ``design`` (gains, margins) and ``residual`` (shipped
+  agent against its base) runs;
+- :mod:`.readme_tables`: the README's generated tables, rendered from ``results.json``;
 - :mod:`.published`: the seed papers' published figures, as data;
 - :mod:`.runs`: one run, a pure function of its spec;
 - :mod:`.runner`: the runs serially, on local processes (``--workers N``) or as Ray tasks

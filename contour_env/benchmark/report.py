@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .published import RELATIVE, published_for
-from .suite import ILC, NOMINAL, ROBUSTNESS
+from .suite import DESIGN, ILC, NOMINAL, RESIDUAL_RUN, ROBUSTNESS
 
 HEADLINE = "rms_contour_error_um"
 # published metrics shown beside ours, in this order, with their column label
@@ -496,6 +496,92 @@ def read_ilc(case: str, variant: str, rows: list[dict]) -> str:
     return " ".join(parts)
 
 
+def design_tables(records: list[dict]) -> list[dict]:
+    """One table of the design runs: default gains and loop margins per plant × controller."""
+    from .design import margins_text
+
+    rows = [r for r in records if r["kind"] == DESIGN and not r.get("error")]
+    if not rows:
+        return []
+    body, below = [], []
+    for r in rows:
+        m = r["metrics"]
+        cells = [margins_text(m["margins"]), margins_text(m["structural_mode_margins"])]
+        body.append([r["case"], r["controller"], m["gains"], *(c.replace("**", "") for c in cells)])
+        below += [
+            f"{r['controller']} on {r['case']} ({what})"
+            for what, rep in (("realistic", m["margins"]), ("mode", m["structural_mode_margins"]))
+            if rep is not None and not rep["meets_requirement"]
+        ]
+    reading = (
+        f"Every one of the {len(rows)} designs meets the margin requirement on the realistic "
+        "plant over the mass corners and with the structural mode."
+        if not below
+        else "Below the margin requirement: " + ", ".join(below) + "."
+    )
+    return [
+        {
+            "title": "default gains and loop margins (realistic plant, ±20 % mass corners)",
+            "case": "",
+            "sources": [],
+            "header": ["plant", "controller", "default gains", "margins", "margins, mode"],
+            "rows": body,
+            "reading": reading,
+            "figure": None,
+        }
+    ]
+
+
+def residual_tables(records: list[dict]) -> list[dict]:
+    """Per shipped agent: agent against base on each test contour."""
+    groups: dict = {}
+    for r in records:
+        if r["kind"] == RESIDUAL_RUN and not r.get("error"):
+            groups.setdefault(r["variant"], []).append(r)
+    tables = []
+    for model, rows in groups.items():
+        body = []
+        for r in rows:
+            m = r["metrics"]
+            body.append(
+                [
+                    r["case"],
+                    _fmt(m["base_rms_contour_error_um"]),
+                    _fmt(m["agent_rms_contour_error_um"]),
+                    _fmt(m["rms_ratio"]),
+                    _fmt(m["base_max_contour_error_um"]),
+                    _fmt(m["agent_max_contour_error_um"]),
+                    ", ".join("idle" if e is None else _fmt(e) for e in m["effort_ratio"]),
+                    "ok" if m["agent_completed"] else "stopped by the crash guard",
+                ]
+            )
+        better = [r["case"] for r in rows if r["metrics"]["rms_ratio"] < 1.0]
+        m0 = rows[0]["metrics"]
+        tables.append(
+            {
+                "title": f"residual agent {model} (plant {m0['plant']}, base {m0['base']})",
+                "case": "",
+                "sources": [],
+                "header": [
+                    "contour",
+                    "base RMS ε µm",
+                    "agent RMS ε µm",
+                    "RMS agent/base",
+                    "base max ε µm",
+                    "agent max ε µm",
+                    "effort agent/base",
+                    "status",
+                ],  # fmt: skip
+                "rows": body,
+                "reading": f"The agent lowers the RMS contour error of its base {m0['base']} on "
+                f"{len(better)} of {len(rows)} contours"
+                + (f" ({', '.join(better)})." if better else "."),
+                "figure": None,
+            }
+        )
+    return tables
+
+
 # --- figures ------------------------------------------------------------------------------
 
 
@@ -511,8 +597,8 @@ def write_figures(records: list[dict], results: list[dict], out: Path) -> list[P
     written = []
     traces: dict = {}
     for r, res in zip(records, results, strict=True):
-        if r.get("error"):
-            continue
+        if r.get("error") or r["kind"] not in (NOMINAL, ROBUSTNESS, ILC):
+            continue  # design and residual runs have no time trace
         traces.setdefault((r["kind"], r["case"], r["variant"]), []).append((r, res["trace"]))
     for (kind, case, variant), items in traces.items():
         fig, ax = plt.subplots(figsize=(8, 4.2))
@@ -573,6 +659,8 @@ def _sections(records):
         ("Nominal plant: every case × controller", nominal_tables(records)),
         ("Robustness over plant variations", robustness_tables(records)),
         ("Repeated-batch ILC", ilc_tables(records)),
+        ("Controller design", design_tables(records)),
+        ("Residual agents against their bases", residual_tables(records)),
     ]
 
 
@@ -624,7 +712,9 @@ def render_markdown(records: list[dict], meta: dict) -> str:
                     ["published relative figure", "ours", "paper", "change"], t["relative"]
                 )
                 lines += [""]
-            lines += [t["reading"], "", f"![{t['title']}]({t['figure']})", ""]
+            lines += [t["reading"], ""]
+            if t["figure"]:
+                lines += [f"![{t['title']}]({t['figure']})", ""]
     return "\n".join(lines) + "\n"
 
 
@@ -677,8 +767,8 @@ def render_html(records: list[dict], meta: dict, out: Path) -> str:
                     )
                 )
             parts.append(f"<p class='reading'>{html.escape(t['reading'])}</p>")
-            png = out / t["figure"]
-            if png.exists():
+            png = out / t["figure"] if t["figure"] else None
+            if png is not None and png.exists():
                 data = base64.b64encode(png.read_bytes()).decode("ascii")
                 parts.append(
                     f"<p><a href='{html.escape(t['figure'])}'><img alt='{html.escape(t['title'])}' "

@@ -1,7 +1,8 @@
 """One run of a suite: a pure function of its spec (same spec, same figures, in any process).
 
 :func:`execute` takes the spec as a plain dict (what crosses a process or a Ray task) and
-returns ``{"spec", "plant", "metrics", "trace", "wall_s"}``: ``metrics`` JSON-ready, ``trace``
+returns ``{"spec", "plant", "metrics", "trace", "wall_s"}`` (the kinds: nominal, robustness,
+ilc, design (:mod:`.design`), residual (:mod:`.residual`)): ``metrics`` JSON-ready, ``trace``
 arrays as lists for the figures (kept out of results.json); a run that raised has ``error``
 (the exception's type and message) and no metrics.
 """
@@ -13,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from .suite import ILC, NOMINAL, ROBUSTNESS, RunSpec
+from .suite import DESIGN, ILC, NOMINAL, RESIDUAL_RUN, ROBUSTNESS, RunSpec
 
 # points kept of a time trace for the figures
 TRACE_POINTS = 1500
@@ -112,6 +113,7 @@ def _ilc(spec: RunSpec) -> dict:
     from agents import make_controller
     from agents.repeated_batch import run_batch
     from contour_env import ENV_ID
+    from contour_env.metrics import encoder_resolution_um
 
     s = spec.settings
     kw = {}
@@ -128,7 +130,9 @@ def _ilc(spec: RunSpec) -> dict:
         "first_rms_contour_error_um": first["rms_contour_error_um"],
         "max_contour_error_um": last["max_contour_error_um"],
         "rms_contour_error_um": last["rms_contour_error_um"],
-        "encoder_resolution_um": last.get("encoder_resolution_um"),
+        # the trial rows do not carry it: the true plant's encoder count (as ilc_benchmark.py)
+        "encoder_resolution_um": last.get("encoder_resolution_um")
+        or encoder_resolution_um(env.unwrapped.plant.params.encoder_resolution_m),
         "diverged": result["diverged"],
         "completed": all(r["completed"] for r in rows),
         "max_contour_error_um_per_iteration": [r["max_contour_error_um"] for r in rows],
@@ -137,7 +141,28 @@ def _ilc(spec: RunSpec) -> dict:
     return {"plant": result["plant"], "metrics": metrics, "trace": {}}
 
 
-_KINDS = {NOMINAL: _nominal, ROBUSTNESS: _robustness, ILC: _ilc}
+def _design(spec: RunSpec) -> dict:
+    from .design import design
+
+    s = spec.settings
+    metrics = design(spec.case, spec.controller, float(s.get("mass_variation", 0.2)))
+    return {"plant": spec.case, "metrics": metrics, "trace": {}}
+
+
+def _residual(spec: RunSpec) -> dict:
+    from .residual import residual_run
+
+    plant, metrics = residual_run(spec.settings["model"], spec.settings["target"])
+    return {"plant": plant, "metrics": metrics, "trace": {}}
+
+
+_KINDS = {
+    NOMINAL: _nominal,
+    ROBUSTNESS: _robustness,
+    ILC: _ilc,
+    DESIGN: _design,
+    RESIDUAL_RUN: _residual,
+}
 
 
 def execute(spec: dict) -> dict:

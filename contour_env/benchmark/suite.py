@@ -9,7 +9,12 @@
   Simba 2018's VILCFD vs conventional ILC (10 trials, repeatable and random);
 - ``full``: ``paper`` + every case × every applicable controller (the learning ones' first
   trial too) + robustness over plant variations (every feed-drive case, ±20 %, 32 variations)
-  + ILC curves on three cases + the shipped residual agents on their plants' cases.
+  + ILC curves on three cases + the shipped residual agents on their plants' cases;
+- ``readme``: exactly the runs of the README's generated tables (:data:`README_TABLES`;
+  ``scripts/readme_figures.py`` renders them from its results.json): the default gains and
+  loop margins (``design`` runs), Lee 2012's circles, the shipped residual agents against
+  their bases (``residual`` runs), the ILC benchmark and corner-blend over seeds 0–4.
+  ``readme:NAME[,NAME...]`` runs the named tables' runs only.
 """
 
 from __future__ import annotations
@@ -20,14 +25,19 @@ from functools import cache
 NOMINAL = "nominal"
 ROBUSTNESS = "robustness"
 ILC = "ilc"
-KINDS = (NOMINAL, ROBUSTNESS, ILC)
+DESIGN = "design"
+RESIDUAL_RUN = "residual"
+KINDS = (NOMINAL, ROBUSTNESS, ILC, DESIGN, RESIDUAL_RUN)
 
 
 @dataclass(frozen=True)
 class RunSpec:
-    """One independent run. ``kind``: nominal (one episode), robustness (plant variations)
-    or ilc (repeated batch); ``variant``: the plant variant (``nominal``, ``random±20%x8``,
-    ``repeatable`` / ``random`` for ILC); ``settings``: the kind's parameters."""
+    """One independent run. ``kind``: nominal (one episode), robustness (plant variations),
+    ilc (repeated batch), design (default gains and loop margins; ``case`` is the plant's
+    name) or residual (a shipped residual agent against its base on one test contour;
+    ``case`` is the contour, ``variant`` the agent's name); ``variant``: the plant variant
+    (``nominal``, ``random±20%x8``, ``repeatable`` / ``random`` for ILC); ``settings``: the
+    kind's parameters."""
 
     kind: str
     case: str
@@ -118,6 +128,14 @@ def ilc(case: str, controller: str, condition: str, iterations: int, seed: int =
     return RunSpec(ILC, case, controller, seed, condition, settings)
 
 
+def design(plant: str, controller: str) -> RunSpec:
+    return RunSpec(DESIGN, plant, controller, 0, "realistic±20%", {"mass_variation": 0.2})
+
+
+def residual_vs_base(model: str, target: str) -> RunSpec:
+    return RunSpec(RESIDUAL_RUN, target, RESIDUAL, 0, model, {"model": model, "target": target})
+
+
 # the rows of the published comparisons (our spec of each paper's controller)
 PAPER_NOMINAL = {
     **{
@@ -193,11 +211,82 @@ def full_suite() -> Suite:
     )
 
 
-SUITES = {"quick": quick_suite, "paper": paper_suite, "full": full_suite}
+# --- the README's generated tables: what each one needs ------------------------------------
+
+LEE2012_CASES = ("hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III")
+CORNER_BLEND = ("pd", "ccc", "adaptive-ccc")
+CORNER_BLEND_SEEDS = 5
+# scripts/ilc_benchmark.py's defaults: 10 trials, seed 0, 50 nm encoder noise when random
+ILC_TABLE_CASES = ("sharp-corner", "hsm2-circle-II")
+ILC_TABLE_ITERATIONS = 10
+
+
+def _controller_table_runs() -> list[RunSpec]:
+    from contour_env.plants.catalog import plant_names
+
+    from .design import CONTROLLERS, applies
+
+    return [design(p, c) for p in plant_names() for c in CONTROLLERS if applies(p, c)]
+
+
+def _lee2012_table_runs() -> list[RunSpec]:
+    return [nominal(case, c) for case in LEE2012_CASES for c in PAPER_NOMINAL[case]]
+
+
+def _residual_table_runs() -> list[RunSpec]:
+    from .residual import shipped_targets
+
+    return [residual_vs_base(model, target) for model, target in shipped_targets()]
+
+
+def _ilc_table_runs() -> list[RunSpec]:
+    return [
+        ilc(case, c, cond, ILC_TABLE_ITERATIONS)
+        for case in ILC_TABLE_CASES
+        for cond in ("repeatable", "random")
+        for c in LEARNING
+    ]
+
+
+def _corner_blend_table_runs() -> list[RunSpec]:
+    return [
+        nominal("corner-blend", c, seed) for c in CORNER_BLEND for seed in range(CORNER_BLEND_SEEDS)
+    ]
+
+
+# table name (as in the README's markers) → the runs it is rendered from
+README_TABLES = {
+    "controller_table": _controller_table_runs,
+    "lee2012_table": _lee2012_table_runs,
+    "residual_table": _residual_table_runs,
+    "ilc_table": _ilc_table_runs,
+    "corner_blend_table": _corner_blend_table_runs,
+}
+
+
+def readme_suite(tables=None) -> Suite:
+    """The runs of the README's tables ``tables`` (default: all of :data:`README_TABLES`)."""
+    names = list(README_TABLES) if tables is None else list(tables)
+    bad = [n for n in names if n not in README_TABLES]
+    if bad or not names:
+        raise ValueError(
+            f"--suite: readme:TABLE[,TABLE...] with tables of {', '.join(README_TABLES)}; "
+            f"got {', '.join(bad) or 'none'}"
+        )
+    runs = [r for n in names for r in README_TABLES[n]()]
+    name = "readme" if tables is None else f"readme:{','.join(names)}"
+    return Suite(name, "the runs of the README's generated tables", _unique(runs))
+
+
+SUITES = {"quick": quick_suite, "paper": paper_suite, "full": full_suite, "readme": readme_suite}
 
 
 def get_suite(name: str) -> Suite:
-    """The suite ``name``; ``ValueError`` naming ``--suite`` and the allowed values."""
+    """The suite ``name`` (``readme:TABLE[,TABLE...]``: those README tables' runs only);
+    ``ValueError`` naming ``--suite`` and the allowed values."""
+    base, sep, rest = str(name).partition(":")
+    if sep and base == "readme":
+        return readme_suite([t.strip() for t in rest.split(",") if t.strip()])
     if name not in SUITES:
         raise ValueError(f"--suite: unknown suite {name!r}; allowed: {', '.join(SUITES)}")
     return SUITES[name]()
