@@ -147,17 +147,8 @@ def test_the_quick_bench_of_the_readme_parses_with_its_short_settings():
 # ------------------------------------------------------------------ generated tables
 
 
-def _readme_figures():
-    spec = importlib.util.spec_from_file_location(
-        "readme_figures", ROOT / "scripts" / "readme_figures.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def test_every_generated_section_of_the_readme_has_its_generator_and_a_table():
-    mod = _readme_figures()
+def test_every_generated_section_of_the_readme_has_its_generator_and_a_table(readme_figures):
+    mod = readme_figures
     found = mod.sections(README_TEXT)
     assert set(found) == set(mod.GENERATORS)
     for name, body in found.items():
@@ -197,8 +188,8 @@ def _fake(tables: dict, calls: list):
     return {name: make(name) for name in tables}
 
 
-def test_sections_are_replaced_in_place_and_the_rest_is_untouched(tmp_path):
-    mod = _readme_figures()
+def test_sections_are_replaced_in_place_and_the_rest_is_untouched(tmp_path, readme_figures):
+    mod = readme_figures
     readme = tmp_path / "README.md"
     readme.write_text(SAMPLE)
     calls = []
@@ -221,8 +212,8 @@ def test_sections_are_replaced_in_place_and_the_rest_is_untouched(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["README.md"]  # atomic: no temporary left
 
 
-def test_only_runs_the_named_generators_and_check_writes_nothing(tmp_path):
-    mod = _readme_figures()
+def test_only_runs_the_named_generators_and_check_writes_nothing(tmp_path, readme_figures):
+    mod = readme_figures
     readme = tmp_path / "README.md"
     readme.write_text(SAMPLE)
     calls = []
@@ -239,8 +230,8 @@ def test_only_runs_the_named_generators_and_check_writes_nothing(tmp_path):
     assert mod.update_readme(readme, check=True, **quiet) == 0
 
 
-def test_unknown_names_and_missing_markers_are_errors(tmp_path):
-    mod = _readme_figures()
+def test_unknown_names_and_missing_markers_are_errors(tmp_path, readme_figures):
+    mod = readme_figures
     readme = tmp_path / "README.md"
     readme.write_text(SAMPLE)
     quiet = dict(stamp_text=" (S) ", log=lambda s: None)
@@ -255,8 +246,10 @@ def test_unknown_names_and_missing_markers_are_errors(tmp_path):
     assert readme.read_text() == SAMPLE
 
 
-def test_main_regenerates_a_copy_of_the_readme_with_a_fake_generator(tmp_path, monkeypatch):
-    mod = _readme_figures()
+def test_main_regenerates_a_copy_of_the_readme_with_a_fake_generator(
+    tmp_path, monkeypatch, readme_figures
+):
+    mod = readme_figures
     copy = tmp_path / "README.md"
     shutil.copy(README, copy)
     table = "| plant | controller |\n|---|---|\n| `x` | `pd` |"
@@ -275,8 +268,8 @@ def test_main_regenerates_a_copy_of_the_readme_with_a_fake_generator(tmp_path, m
         assert mod.sections(new)[name] == mod.sections(README_TEXT)[name]
 
 
-def test_git_commit_is_a_short_hash_possibly_dirty():
-    commit = _readme_figures().git_commit()
+def test_git_commit_is_a_short_hash_possibly_dirty(readme_figures):
+    commit = readme_figures.git_commit()
     assert commit == "unknown" or re.fullmatch(r"[0-9a-f]{4,40}(-dirty)?", commit)
 
 

@@ -14,7 +14,6 @@ from dataclasses import asdict
 from pathlib import Path
 
 SWEEP_FORMAT = "contour_env.sweep/1"
-RAY_HINT = 'pip install -e ".[ray]"'
 # the trainer's summary figures a trial record carries
 RECORD = ("name", "status", "error", "model", "wall_s")
 FIGURES = (
@@ -31,16 +30,9 @@ FIGURES = (
 def check_ray(address) -> str | None:
     """``--ray``'s ``address`` checked: ``ValueError`` naming ``--ray`` when it is empty or
     Ray Tune is not installed."""
-    if address is None:
-        return None
-    text = str(address).strip()
-    if not text:
-        raise ValueError("--ray: give auto (a local Ray instance) or a cluster ADDRESS")
-    try:
-        import ray.tune  # noqa: F401
-    except ImportError:
-        raise ValueError(f"--ray: Ray Tune is not installed; install it with {RAY_HINT}") from None
-    return text
+    from contour_env.benchmark.runner import check_ray as _check
+
+    return _check(address, "ray.tune")
 
 
 def run_trial(trial: dict) -> dict:

@@ -6,6 +6,7 @@ returned in the suite's order whatever the executor, so the figures are identica
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Sequence
 
 from .runs import execute
@@ -27,19 +28,20 @@ def check_workers(workers) -> int:
     return n
 
 
-def check_ray(address) -> str | None:
+def check_ray(address, module: str = "ray") -> str | None:
     """``address`` (``auto``, ``local`` or a cluster ADDRESS such as ``ray://host:10001`` or
-    ``host:6379``) checked; ``ValueError`` naming ``--ray`` when it is empty or Ray is not
-    installed."""
+    ``host:6379``) checked; ``ValueError`` naming ``--ray`` when it is empty or ``module``
+    (``ray``; ``ray.tune`` for training sweeps) is not installed."""
     if address is None:
         return None
     text = str(address).strip()
     if not text:
         raise ValueError("--ray: give auto (a local Ray instance) or a cluster ADDRESS")
     try:
-        import ray  # noqa: F401
+        importlib.import_module(module)
     except ImportError:
-        raise ValueError(f"--ray: Ray is not installed; install it with {RAY_HINT}") from None
+        what = "Ray Tune" if module == "ray.tune" else "Ray"
+        raise ValueError(f"--ray: {what} is not installed; install it with {RAY_HINT}") from None
     return text
 
 

@@ -6,7 +6,6 @@ README adds (``design``) and one real table (Lee 2012, one circle)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import shutil
@@ -22,15 +21,6 @@ from contour_env.benchmark.runs import execute
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
 VERSION = {"package": "contour_env", "version": "0.0", "commit": "0123456789abcdef-dirty"}
-
-
-def _readme_figures():
-    spec = importlib.util.spec_from_file_location(
-        "readme_figures_under_test", ROOT / "scripts" / "readme_figures.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 # --------------------------------------------------------------------- the readme suite
@@ -182,9 +172,9 @@ def test_the_report_of_the_readme_suite_shows_the_new_kinds_and_draws_no_figure_
     assert kinds == {S.NOMINAL, S.ILC, S.DESIGN, S.RESIDUAL_RUN}
 
 
-def test_every_table_renders_from_the_records_in_the_readme_layout(fake_report):
+def test_every_table_renders_from_the_records_in_the_readme_layout(fake_report, readme_figures):
     records = json.loads((fake_report / "results.json").read_text())["records"]
-    readme = _readme_figures().sections(README.read_text(encoding="utf-8"))
+    readme = readme_figures.sections(README.read_text(encoding="utf-8"))
     for name in S.README_TABLES:
         text = T.render(name, records)
         lines = text.splitlines()
@@ -239,8 +229,10 @@ def test_the_stamp_is_the_reports_date_and_short_commit():
 # ------------------------------------------------------------ scripts/readme_figures.py
 
 
-def test_readme_figures_renders_a_copy_of_the_readme_from_a_report(fake_report, tmp_path):
-    mod = _readme_figures()
+def test_readme_figures_renders_a_copy_of_the_readme_from_a_report(
+    fake_report, tmp_path, readme_figures
+):
+    mod = readme_figures
     copy = tmp_path / "README.md"
     shutil.copy(README, copy)
     before = copy.read_text(encoding="utf-8")
@@ -273,9 +265,9 @@ def test_readme_figures_renders_a_copy_of_the_readme_from_a_report(fake_report, 
 
 
 def test_readme_figures_without_a_report_runs_the_readme_suite_of_the_named_tables(
-    fake_report, tmp_path, monkeypatch
+    fake_report, tmp_path, monkeypatch, readme_figures
 ):
-    mod = _readme_figures()
+    mod = readme_figures
     copy = tmp_path / "README.md"
     shutil.copy(README, copy)
     calls = []
