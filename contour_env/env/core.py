@@ -427,10 +427,20 @@ class EnvCore:
         """Reset the envs ``envs`` (indices) with one episode seed each (any integers, taken
         mod 2⁶⁴), in one compiled call."""
         envs = self._env_indices(envs)
-        noise_seeds = list(noise_seeds)
-        if len(noise_seeds) != envs.size:
-            raise ValueError(f"noise_seeds: one per env ({envs.size}), got {len(noise_seeds)}")
-        self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
+        if isinstance(noise_seeds, np.ndarray) and noise_seeds.dtype in (np.int64, np.uint64):
+            # the vectorised env's autoreset: non-negative int64 draws, no conversion needed
+            if noise_seeds.shape != envs.shape:
+                raise ValueError(f"noise_seeds: one per env ({envs.size}), got {noise_seeds.size}")
+            if noise_seeds.dtype == np.int64 and noise_seeds.size and noise_seeds.min() < 0:
+                noise_seeds = noise_seeds.astype(object)  # taken mod 2**64 below
+            else:
+                self.seed[envs] = noise_seeds.astype(np.uint64)
+                noise_seeds = None
+        if noise_seeds is not None:
+            noise_seeds = list(noise_seeds)
+            if len(noise_seeds) != envs.size:
+                raise ValueError(f"noise_seeds: one per env ({envs.size}), got {len(noise_seeds)}")
+            self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
         p = self.packed
         K.env_reset(
             envs,
@@ -525,7 +535,12 @@ class EnvCore:
         }
 
     def step(
-        self, action: np.ndarray, active: np.ndarray, info_arrays=None, fresh_outputs=False
+        self,
+        action: np.ndarray,
+        active: np.ndarray,
+        info_arrays=None,
+        fresh_outputs=False,
+        carry_inactive=True,
     ) -> int:
         """Advance the active envs with ``action`` (B, A) in [-1, 1]; raises on NaN/inf.
         Returns the number of stepped envs whose episode has now ended (terminated or
@@ -534,10 +549,11 @@ class EnvCore:
         With ``info_arrays`` (:meth:`new_info_arrays`) the kernel also fills the batched info
         of every stepped env, while its data is in cache. With ``fresh_outputs`` the kernel
         writes ``obs``, ``reward``, ``terminated`` and ``truncated`` into new arrays, which
-        then replace the old ones (rows of inactive envs carried over): a caller may hand
-        those out without copying them as long as it makes every later write go to new arrays
-        too (steps with ``fresh_outputs``, :meth:`renew_outputs` before a reset), as the
-        vectorised env does."""
+        then replace the old ones (rows of inactive envs carried over, unless
+        ``carry_inactive`` is False: for a caller that resets every inactive env right after,
+        which writes those rows anyway): a caller may hand those out without copying them as
+        long as it makes every later write go to new arrays too (steps with ``fresh_outputs``,
+        :meth:`renew_outputs` before a reset), as the vectorised env does."""
         p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
@@ -591,7 +607,8 @@ class EnvCore:
             )
         all_active = active is self.all_active
         if fresh_outputs:
-            self._adopt_outputs(outputs, None if all_active else ~np.asarray(active, bool))
+            carry = None if all_active or not carry_inactive else ~np.asarray(active, bool)
+            self._adopt_outputs(outputs, carry)
         # every status is known to be "running" only if every env was stepped and none ended
         self._status_clear = all_active and n_terminated == 0
         return n_ended
@@ -657,9 +674,16 @@ class EnvCore:
         # all (a (B,) array of 19-character strings is the size of five float arrays); a real
         # array once one ended. (_status_clear: the last step stepped every env and none
         # terminated, so the status array need not be scanned.)
-        if self._status_clear or not self.status.any():
+        if self._status_clear:
             return self._no_reasons
-        return _REASON_BY_STATUS[self.status]
+        ended = np.flatnonzero(self.status)
+        if ended.size == 0:
+            return self._no_reasons
+        # zeros are empty strings: only the few ended envs are written (indexing the whole
+        # table by the status array copied every row, a third of the step's Python time)
+        out = np.zeros(self.n_envs, dtype=_REASON_BY_STATUS.dtype)
+        out[ended] = _REASON_BY_STATUS[self.status[ended]]
+        return out
 
     def signals_batch(self) -> dict:
         """:meth:`signals` of every env, stacked (leading axis B)."""

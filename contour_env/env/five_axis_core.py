@@ -263,12 +263,18 @@ class FiveAxisCore:
         )  # fmt: skip
 
     def step(
-        self, action: np.ndarray, active: np.ndarray, info_arrays=None, fresh_outputs=False
+        self,
+        action: np.ndarray,
+        active: np.ndarray,
+        info_arrays=None,
+        fresh_outputs=False,
+        carry_inactive=True,
     ) -> int:
         """Advance the active envs with ``action`` (B, 5) in [-1, 1]; raises on NaN/inf.
         Returns the number of stepped envs whose episode has now ended. ``info_arrays``
         (:meth:`new_info_arrays`) are filled for the stepped envs; with ``fresh_outputs``
-        obs, reward, terminated and truncated are new arrays (as EnvCore.step)."""
+        obs, reward, terminated and truncated are new arrays (as EnvCore.step; they are copies
+        here, so every row carries over whatever ``carry_inactive`` says)."""
         action = np.ascontiguousarray(action, dtype=np.float64)
         if action.shape != (self.n_envs, 5):
             raise ValueError(f"action: expected shape ({self.n_envs}, 5), got {action.shape}")

@@ -81,11 +81,15 @@ class ContouringVectorEnv(VectorEnv):
         # while the data is still in the stepping threads' caches. Those arrays are returned
         # as they are; the core never writes them again.
         info = core.new_info_arrays()
-        n_ended = core.step(np.ascontiguousarray(a), active, info, fresh_outputs=True)
+        # the envs not stepped are reset right below, which writes their output rows: nothing
+        # to carry over from the previous arrays
+        n_ended = core.step(
+            np.ascontiguousarray(a), active, info, fresh_outputs=True, carry_inactive=False
+        )
         if resetting is not None:
             envs = np.flatnonzero(resetting)
             # one draw per env in index order (the same seeds as drawing them one by one)
-            core.reset_envs(envs, self._rng.integers(0, 2**62, size=len(envs)).tolist())
+            core.reset_envs(envs, self._rng.integers(0, 2**62, size=len(envs)))
             core.fill_info(info, envs)
         self._needs_reset = core.terminated | core.truncated if n_ended else None
         return core.obs, core.reward, core.terminated, core.truncated, core.info_dict(info)

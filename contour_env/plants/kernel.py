@@ -9,14 +9,16 @@ One call advances a batch of n-axis feed drives by one servo period T:
   stick–slip treatment: the mass sticks when the non-friction force it feels is within the
   static friction (no chattering, no energy gain); it breaks away when it exceeds it. The
   smooth stretches of such a period (holding, sliding without reversal) are crossed in chunks
-  of substeps and the event found by bisection to the substep (see CHUNK_SIZES).
+  of substeps up to a predicted event, and an event found by bisection to the substep (see
+  MAX_CHUNK).
 
 Packed per-(env, axis) arrays (built by :class:`contour_env.plants.model.Plant`):
 
 - ``mat_T``: (P, A, ns, ns + 3) = [Phi | Gu | Ga | Gb] over T;
-- ``mat_h``: (P · N_SUB_LEVELS, A, ns, ns + 3), the same over the substep lengths
-  T / n_sub, T / 2, T / 3, T / 4 and the chunks 2, 4, … 32 × T / n_sub (row
-  p · N_SUB_LEVELS + level, see SUB_LEVEL_DIVISORS, CHUNK_SIZES and sub_level_lengths);
+- ``mat_h``: (P · L, A, ns, ns + 3), the same over the substep lengths T / n_sub, T / 2,
+  T / 3, T / 4 and the chunks of c = 2, 3, …, min(n_sub, MAX_CHUNK) fine substeps, c · T / n_sub
+  (L = n_sub_levels(n_sub) rows per parameter set, row p · L + level; see SUB_LEVEL_DIVISORS,
+  MAX_CHUNK and sub_level_lengths);
 - ``cont``: (P, A, ns + 2) = row 1 of the continuous A, then B_u[1], B_w[1];
 - ``nl``: (P, A, NL_SIZE) nonlinear parameters, indices below;
 
@@ -62,22 +64,38 @@ FOH_FRICTION_TOL = 1e-3
 # deviation is q · FOH_FRICTION_TOL with q <= d² is split into d equal substeps instead of the
 # fine ones: the deviation falls with the square of the step.
 SUB_LEVEL_DIVISORS = (0, 2, 3, 4)
-# Levels 4…: chunks of c fine substeps (c · h) for c in CHUNK_SIZES. Inside a period that
-# needs the fine grid, the stretches before and after an event (break-away, sticking, a
-# reversal) are smooth: they are crossed in chunks, accepted under the same tests as a whole
-# period (no sign change, first-order-hold deviation within FOH_FRICTION_TOL; while stuck, the
-# non-friction force within f_s at both ends), and the event itself is found by bisection
-# down to the fine substep, where the fine treatment is unchanged.
-CHUNK_SIZES = (2, 4, 8, 16, 32)
-CHUNK_LEVEL0 = len(SUB_LEVEL_DIVISORS)  # level of a chunk of 2 substeps; c = 2^k → level k + 3
-MAX_CHUNK = CHUNK_SIZES[-1]
-N_SUB_LEVELS = len(SUB_LEVEL_DIVISORS) + len(CHUNK_SIZES)
+# Levels 4…: chunks of c = 2 … max_chunk(n_sub) fine substeps (c · h), every length. Inside a
+# period that needs the fine grid, the stretches before and after an event (break-away,
+# sticking, a reversal) are smooth: they are crossed in chunks, accepted under the same tests
+# as a whole period (no sign change, first-order-hold deviation within FOH_FRICTION_TOL; while
+# stuck, the non-friction force within f_s at both ends), and the event itself is found by
+# bisection down to the fine substep, where the fine treatment is unchanged. A chunk runs to
+# the predicted event (a break-away: where the non-friction force, through its values at the
+# start, middle and end of the held period, reaches f_s), half-way to a suspected one (a chunk
+# that failed on a sign change), or to the end of the period; while sliding it is no longer
+# than the first-order hold allows: after a chunk of c substeps whose deviation was
+# q · FOH_FRICTION_TOL, at most CAP_SAFETY · c / √q (the deviation grows with the square of the
+# length) and at most 2 c.
+CHUNK_LEVEL0 = len(SUB_LEVEL_DIVISORS)  # level of a chunk of 2 substeps; c substeps: c + 2
+MAX_CHUNK = 32
+# chunk length after a first-order-hold failure: this fraction of the length it predicts
+CAP_SAFETY = 0.8
+
+
+def max_chunk(n_sub: int) -> int:
+    """Longest chunk of fine substeps with its own matrices: min(n_sub, MAX_CHUNK)."""
+    return min(n_sub, MAX_CHUNK)
+
+
+def n_sub_levels(n_sub: int) -> int:
+    """Levels of ``mat_h`` per parameter set: the four T / d, chunks of 2 … max_chunk."""
+    return CHUNK_LEVEL0 + max(0, max_chunk(n_sub) - 1)
 
 
 def sub_level_lengths(T: float, n_sub: int) -> list[float]:
     """Substep length (s) of every level of ``mat_h``, in level order."""
     fixed = [T / (d if d else n_sub) for d in SUB_LEVEL_DIVISORS]
-    return fixed + [c * T / n_sub for c in CHUNK_SIZES]
+    return fixed + [c * T / n_sub for c in range(2, max_chunk(n_sub) + 1)]
 
 
 @njit(cache=True, inline="always")
@@ -250,6 +268,7 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
     # substeps if the whole period is not accepted: the fine ones (level 0) unless set below
     n_use = n_sub
     level = 0
+    cap0 = n_sub
     if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
         # whole period, first-order-hold predictor–corrector
         f0 = friction_force(v0, fc, fs, vs)
@@ -285,11 +304,14 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
                     if d < n_sub:
                         n_use = d
                         level = d - 1
+                # on the fine grid, chunks short enough for the deviation (∝ length²)
+                if not accept:
+                    cap0 = max(1, int(CAP_SAFETY * n_sub / math.sqrt(q)))
         if accept:
             _copy_row(S, s, Z, zr, ns)
             return 0.0
     return _axis_step_slow(
-        Z, zr, stuck, u, t0, T, n_use, level, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
+        Z, zr, stuck, u, t0, T, n_use, level, cap0, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
     )
 
 
@@ -325,21 +347,42 @@ def _correct(S, s, mat_h, row, nl, p, i, w0, t_end, w_extra, ns, ec):
 
 
 @njit(cache=True, inline="always")
-def _hold_whole_period(Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns, ec):
+def _hold_whole_period(
+    Z, zr, u, t0, T, mat_T, mat_h, ph2, cont, nl, p, i, S, s, w_extra, fs, ns, ec
+):
     # held by static friction over the whole period if the non-friction force stays within
-    # f_s at both ends of the period (the usual case at rest: no substeps needed)
+    # f_s at both ends of the period (the usual case at rest: no substeps needed). Returns
+    # -1.0 when held; otherwise where in the period (a fraction) the non-friction force
+    # reaches f_s: from its values at the start, the middle (row ph2 of mat_h: T / 2) and the
+    # end, through an exponential (a current lag's shape; a chord where that does not fit)
     wnf = -(external_force_near(Z[zr, 0], t0, nl, p, i, ec) - w_extra)
-    f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
-    if abs(f_nf) > fs:
-        return False
-    _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_nf, wnf - f_nf, ns)
+    f_a = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
+    if abs(f_a) > fs:
+        return 0.0
+    _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_a, wnf - f_a, ns)
     S[s, 0] = Z[zr, 0]
     S[s, 1] = 0.0
     wnf1 = -(external_force_near(Z[zr, 0], t0 + T, nl, p, i, ec) - w_extra)
-    if abs(_nonfriction_force(S, s, u, wnf1, cont, p, i, ns)) > fs:
-        return False
-    _copy_row(S, s, Z, zr, ns)
-    return True
+    f_b = _nonfriction_force(S, s, u, wnf1, cont, p, i, ns)
+    if abs(f_b) <= fs:
+        _copy_row(S, s, Z, zr, ns)
+        return -1.0
+    edge = fs if f_b > 0.0 else -fs
+    alpha = (edge - f_a) / (f_b - f_a)
+    _advance(Z, zr, S, s + 1, mat_h, ph2, i, u, wnf - f_a, wnf - f_a, ns)
+    S[s + 1, 0] = Z[zr, 0]
+    S[s + 1, 1] = 0.0
+    wnfm = -(external_force_near(Z[zr, 0], t0 + 0.5 * T, nl, p, i, ec) - w_extra)
+    d1 = _nonfriction_force(S, s + 1, u, wnfm, cont, p, i, ns) - f_a
+    if d1 != 0.0:
+        q = (f_b - f_a - d1) / d1  # e^{-T / (2 tau)} for f = f_inf + (f_a - f_inf) e^{-t / tau}
+        if 0.0 < q < 1.0:
+            arg = 1.0 - (edge - f_a) * (1.0 - q) / d1
+            if arg > 0.0:
+                a2 = 0.5 * math.log(arg) / math.log(q)
+                if 0.0 <= a2 <= 1.0:
+                    alpha = a2
+    return alpha
 
 
 @njit(cache=True, inline="always")
@@ -392,19 +435,19 @@ def _slide_chunk(Z, zr, u, t, hc, mat_h, pc, nl, p, i, S, s, w_extra, ns, ec):
     _advance(Z, zr, S, s, mat_h, pc, i, u, w0, w0, ns)
     v1 = S[s, 1]
     if v0 * v1 <= 0.0:
-        return False
+        return -1.0
     _correct(S, s, mat_h, pc, nl, p, i, w0, t + hc, w_extra, ns, ec)
     v2 = S[s, 1]
     if v0 * v2 <= 0.0:
-        return False
-    accept = abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs
-    for _ in range(0 if accept else 1):
+        return -1.0
+    q = 0.0
+    if not (abs(v2 - v0) < 0.1 * vs or min(abs(v0), abs(v2)) > 5.0 * vs):
         f_mid = friction_force(0.5 * (v0 + v2), fc, fs, vs)
         f_ends = 0.5 * (f0 + friction_force(v2, fc, fs, vs))
-        accept = abs(f_mid - f_ends) <= FOH_FRICTION_TOL * fs
-    if accept:
+        q = abs(f_mid - f_ends) / (FOH_FRICTION_TOL * fs)
+    if q <= 1.0:
         _copy_row(S, s, Z, zr, ns)
-    return accept
+    return q
 
 
 @njit(cache=True, inline="always")
@@ -447,7 +490,7 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec
 
 @njit(cache=True, error_model="numpy")
 def _axis_step_slow(
-    Z, zr, stuck, u, t0, T, n_sub, level, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
+    Z, zr, stuck, u, t0, T, n_sub, level, cap0, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
 ):
     # Stuck, breaking away, near a velocity reversal, or in the Stribeck band: n_sub substeps
     # of T / n_sub with the matrices of substep level ``level`` (row p · N_SUB_LEVELS + level of
@@ -460,7 +503,10 @@ def _axis_step_slow(
     # end (bisection), and a fine substep that meets the event (break-away, sticking, reversal)
     # clears the suspicion, after which the rest of the period is tried in the largest chunks.
     ns = Z.shape[1]
-    p0 = p * N_SUB_LEVELS
+    n_levels = mat_h.shape[0] // mat_T.shape[0]
+    cmax = n_levels - CHUNK_LEVEL0 + 1
+    cap = min(cap0, cmax)
+    p0 = p * n_levels
     ph = p0 + level
     fs = nl[p, i, NL_FS]
     if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
@@ -468,24 +514,42 @@ def _axis_step_slow(
     # ripple and disturbance at the start of the period, and from there by series (see
     # external_force_near): one sine and cosine however many evaluations follow
     ec = _near_cache(Z[zr, 0], t0, nl, p, i)
-    if stuck != 0.0 and _hold_whole_period(
-        Z, zr, u, t0, T, mat_T, cont, nl, p, i, S, s, w_extra, fs, ns, ec
-    ):
-        return 1.0
     h = T / n_sub
     hi = n_sub
     suspect = True
     j = 0
+    target = -1  # the substep where the event is predicted (-1: none)
+    if cap0 < n_sub:
+        suspect = False  # sent here by the first-order hold's deviation, not by an event
+    if stuck != 0.0:
+        alpha = _hold_whole_period(
+            Z, zr, u, t0, T, mat_T, mat_h, p0 + 1, cont, nl, p, i, S, s, w_extra, fs, ns, ec
+        )
+        if alpha < 0.0:
+            return 1.0
+        if level == 0:
+            target = int(alpha * n_sub)
+            hi = min(n_sub, target + 2)
     while j < n_sub:
         t = t0 + j * h
         if suspect and j >= hi:
             suspect, hi = False, n_sub
-        c = 1
-        if level == 0:
-            c = _pow2_floor((hi - j) // 2 if suspect else n_sub - j)
-        pc = ph if c == 1 else p0 + _chunk_level(c)
         if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
             stuck = 1.0
+        c = 1
+        if level == 0:
+            # up to the predicted event; half-way to a suspected one (bisection); else the
+            # rest of the period; sliding, no longer than the first-order hold allows
+            if target > j:
+                c = target - j
+            elif suspect:
+                c = (hi - j) // 2
+            else:
+                c = n_sub - j
+            c = min(c, cmax if stuck != 0.0 else cap)
+            if c < 1:
+                c = 1
+        pc = ph if c == 1 else p0 + CHUNK_LEVEL0 + c - 2
         if stuck != 0.0:
             wnf = -(external_force_near(Z[zr, 0], t, nl, p, i, ec) - w_extra)
             f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
@@ -513,18 +577,26 @@ def _axis_step_slow(
                 ):
                     j += c
                 else:
-                    suspect, hi = True, j + c
+                    suspect, hi, target = True, j + c, -1
                 continue
             stuck = _break_away(
                 Z, zr, u, wnf, f_nf, t, h, mat_h, ph, nl, p, i, S, s, w_extra, ns, ec
             )
-            suspect, hi = False, n_sub
+            suspect, hi, target = False, n_sub, -1
             j += 1
         elif c > 1:
-            if _slide_chunk(Z, zr, u, t, c * h, mat_h, pc, nl, p, i, S, s, w_extra, ns, ec):
-                j += c
-            else:
+            q = _slide_chunk(Z, zr, u, t, c * h, mat_h, pc, nl, p, i, S, s, w_extra, ns, ec)
+            if q < 0.0:
+                # the velocity changes sign within the chunk: an event there
                 suspect, hi = True, j + c
+            else:
+                if q <= 1.0:
+                    j += c
+                # the next chunk as long as the first-order hold allows (deviation ∝ length²)
+                grow = 2 * c if q <= 1.0 else c
+                if q > 0.0:
+                    grow = min(grow, int(CAP_SAFETY * c / math.sqrt(q)))
+                cap = max(1, min(cmax, grow))
         else:
             stuck, event = _slide_fine(
                 Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec
@@ -532,6 +604,7 @@ def _axis_step_slow(
             if event:
                 suspect, hi = False, n_sub
             j += 1
+            cap = min(cmax, 2 * cap)
     return stuck
 
 

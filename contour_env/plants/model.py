@@ -11,7 +11,6 @@ import numpy as np
 from .catalog import resolve_plant
 from .discretize import continuous_model, discretize, state_size
 from .kernel import (
-    N_SUB_LEVELS,
     NL_AD,
     NL_FC,
     NL_FD,
@@ -26,6 +25,7 @@ from .kernel import (
     NL_SIZE,
     NL_VS,
     NL_WD,
+    n_sub_levels,
     plant_step_batch,
     sub_level_lengths,
 )
@@ -93,14 +93,14 @@ def pack_params(params_list: list[PlantParams]) -> PackedPlant:
         pidx[b] = index[id(p)]
     n_sets, n_axes = len(distinct), first.n_axes
     mat_T = np.empty((n_sets, n_axes, ns, ns + 3))
-    mat_h = np.empty((n_sets * N_SUB_LEVELS, n_axes, ns, ns + 3))
+    n_levels = n_sub_levels(n_sub)
+    mat_h = np.empty((n_sets * n_levels, n_axes, ns, ns + 3))
     cont = np.empty((n_sets, n_axes, ns + 2))
     nl = np.zeros((n_sets, n_axes, NL_SIZE))
     for q, p in enumerate(distinct):
         A, Bu, Bw = continuous_model(p)
         steps = [(mat_T, q, T)] + [
-            (mat_h, q * N_SUB_LEVELS + level, h)
-            for level, h in enumerate(sub_level_lengths(T, n_sub))
+            (mat_h, q * n_levels + level, h) for level, h in enumerate(sub_level_lengths(T, n_sub))
         ]
         for out, row, h in steps:
             Phi, Gu, Ga, Gb = discretize(A, Bu, Bw, h)

@@ -120,6 +120,23 @@ def test_core_batch_calls_reject_bad_indices_seeds_and_info_arrays():
     np.testing.assert_array_equal(core.info_dict(good)["position"], core.batch_info()["position"])
 
 
+def test_reset_seeds_as_an_integer_array_equal_the_same_seeds_as_a_list():
+    # the autoreset hands the draws over as an int64 array (no Python list); any integers are
+    # taken mod 2**64 either way, negative ones included
+    from contour_env.env.core import make_core
+
+    seeds = [5, 2**62 + 3, -7]
+    by_list = make_core("hsm2-circle-I", n_envs=3)
+    by_list.reset_envs([0, 1, 2], seeds)
+    for arr in (np.array(seeds, dtype=np.int64), np.array(seeds[:2] + [2**64 - 7], np.uint64)):
+        core = make_core("hsm2-circle-I", n_envs=3)
+        core.reset_envs([0, 1, 2], arr)
+        np.testing.assert_array_equal(core.seed, by_list.seed)
+    assert by_list.seed[2] == 2**64 - 7
+    with pytest.raises(ValueError, match=r"noise_seeds: one per env \(3\), got 2"):
+        core.reset_envs([0, 1, 2], np.array([1, 2], dtype=np.int64))
+
+
 def test_returned_arrays_are_never_written_again():
     # the vector env hands out the kernel's output arrays without copying them: later steps,
     # autoresets and reset() must leave every array it returned as it was
