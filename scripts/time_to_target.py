@@ -1,7 +1,8 @@
 """Time to target of the residual trainers on ``lm-circle3d`` (issue 18, "minutes, not tens").
 
 The target: an RMS contour error 50 % below the best classical controller on ``lm-circle3d``
-(pd, ccc, adaptive-ccc scored here with :func:`contour_env.evaluation.evaluate`, seed 0). Each
+(pd, ccc, adaptive-ccc, fnn and rfnn, the papers' fixed laws, scored here with
+:func:`contour_env.evaluation.evaluate`, seed 0; rfnn is the best, 1.18 µm). Each
 configuration trains a residual agent on top of that best controller with
 ``contour-env train``'s trainer (:func:`agents.rl.train`), seed 0, one torch thread, for
 ``--budget`` seconds of training time (evaluations not counted: the curves' ``train_s``),
@@ -39,7 +40,7 @@ from contour_env.evaluation import evaluate
 from contour_env.io import atomic_write_json, atomic_write_text
 
 CASE = "lm-circle3d"
-CLASSICAL = ("pd", "ccc", "adaptive-ccc")
+CLASSICAL = ("pd", "ccc", "adaptive-ccc", "fnn", "rfnn")
 TARGET_FRACTION = 0.5
 # configuration name -> TrainConfig keywords (besides case, base, seed, budget)
 CONFIGS = {
