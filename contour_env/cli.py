@@ -89,6 +89,21 @@ def _print_program_summary(kw) -> None:
         print(f"program: {setup.program_summary}")
 
 
+def cmd_warm(args) -> int:
+    from .warmup import warm
+
+    if args.workers < 1:
+        print(f"error: --workers: a positive integer, got {args.workers}", file=sys.stderr)
+        return 2
+    try:
+        dt = warm(args.workers, progress=print)
+    except RuntimeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    print(f"kernels compiled and cached in {dt:.0f} s")
+    return 0
+
+
 def cmd_cases(args) -> int:
     from .cases import all_case_names, get_case
 
@@ -630,6 +645,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", help="write the results as JSON to this file")
     p.set_defaults(func=cmd_bench)
+    p = sub.add_parser(
+        "warm",
+        help="compile the numba kernels once, in parallel (minutes on a fresh install; later "
+        "commands load them in seconds)",
+    )
+    p.add_argument("--workers", type=int, default=2, help="processes compiling at once (default 2)")
+    p.set_defaults(func=cmd_warm)
     from .cli_rl import add_rl_commands  # train, evaluate, models (residual RL agents)
 
     add_rl_commands(sub)

@@ -1,4 +1,8 @@
-"""Shared fixtures: the project's scripts (``scripts/*.py``, not a package) loaded as modules."""
+"""Shared fixtures: the project's scripts (``scripts/*.py``, not a package) loaded as modules.
+
+Before the xdist workers of ``pytest -n N`` (N >= 2) start on a cold numba cache (a fresh
+clone, or kernels changed), the kernels are compiled once by :func:`contour_env.warmup.warm`,
+split over N processes: otherwise every worker compiles all of them at the same time."""
 
 from __future__ import annotations
 
@@ -8,6 +12,27 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def pytest_configure(config):
+    # the controlling process of an xdist run only (workers carry ``workerinput``)
+    if hasattr(config, "workerinput"):
+        return
+    n = getattr(config.option, "numprocesses", None)
+    if not isinstance(n, int) or n < 2:
+        return
+    from contour_env import warmup
+
+    if warmup.cache_is_cold():
+        # not the batched controller runner: its parallel loop alone compiles for minutes
+        # and the default suite does not run it
+        dt = warmup.warm(n, skip=("batch",))
+        config._warm_note = f"numba kernels compiled before the workers started: {dt:.0f} s"
+
+
+def pytest_report_header(config):
+    note = getattr(config, "_warm_note", None)
+    return [note] if note else []
 
 
 def _load_script(name: str):

@@ -267,7 +267,6 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
     v0 = Z[zr, 1]
     # substeps if the whole period is not accepted: the fine ones (level 0) unless set below
     n_use = n_sub
-    level = 0
     cap0 = n_sub
     if stuck == 0.0 and (fs == 0.0 or v0 != 0.0):
         # whole period, first-order-hold predictor–corrector
@@ -303,15 +302,54 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
                     d = 2 if q <= 2.0 else (3 if q <= 4.5 else 4)
                     if d < n_sub:
                         n_use = d
-                        level = d - 1
                 # on the fine grid, chunks short enough for the deviation (∝ length²)
                 if not accept:
                     cap0 = max(1, int(CAP_SAFETY * n_sub / math.sqrt(q)))
         if accept:
             _copy_row(S, s, Z, zr, ns)
             return 0.0
+    # held by static friction over the whole period (the usual case at rest): the non-friction
+    # force within f_s at both ends. Tried here, without the call to the slow path; where it
+    # fails, the slow path takes the forces at the two ends from here (f_a, f_b)
+    f_a = math.nan
+    f_b = 0.0
+    if stuck != 0.0:
+        wnf = -(external_force(Z[zr, 0], t0, nl, p, i) - w_extra)
+        f_a = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
+        if abs(f_a) <= fs:
+            _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_a, wnf - f_a, ns)
+            S[s, 0] = Z[zr, 0]
+            S[s, 1] = 0.0
+            wnf1 = -(external_force(Z[zr, 0], t0 + T, nl, p, i) - w_extra)
+            f_b = _nonfriction_force(S, s, u, wnf1, cont, p, i, ns)
+            if abs(f_b) <= fs:
+                _copy_row(S, s, Z, zr, ns)
+                return 1.0
+    # the substep level (SUB_LEVEL_DIVISORS): fine (0) or d equal substeps (d − 1); computed
+    # here from run-time values, so that the slow path is compiled for one signature (a
+    # constant 0 would be typed as a literal and give it a second one)
+    level = 0 if n_use == n_sub else n_use - 1
     return _axis_step_slow(
-        Z, zr, stuck, u, t0, T, n_use, level, cap0, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
+        Z,
+        zr,
+        stuck,
+        u,
+        t0,
+        T,
+        n_use,
+        level,
+        cap0,
+        mat_T,
+        mat_h,
+        cont,
+        nl,
+        p,
+        i,
+        S,
+        s,
+        w_extra,
+        f_a,
+        f_b,
     )
 
 
@@ -348,7 +386,7 @@ def _correct(S, s, mat_h, row, nl, p, i, w0, t_end, w_extra, ns, ec):
 
 @njit(cache=True, inline="always")
 def _hold_whole_period(
-    Z, zr, u, t0, T, mat_T, mat_h, ph2, cont, nl, p, i, S, s, w_extra, fs, ns, ec
+    Z, zr, u, t0, T, mat_T, mat_h, ph2, cont, nl, p, i, S, s, w_extra, fs, ns, ec, f_a0, f_b0
 ):
     # held by static friction over the whole period if the non-friction force stays within
     # f_s at both ends of the period (the usual case at rest: no substeps needed). Returns
@@ -356,17 +394,23 @@ def _hold_whole_period(
     # reaches f_s: from its values at the start, the middle (row ph2 of mat_h: T / 2) and the
     # end, through an exponential (a current lag's shape; a chord where that does not fit)
     wnf = -(external_force_near(Z[zr, 0], t0, nl, p, i, ec) - w_extra)
-    f_a = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
-    if abs(f_a) > fs:
-        return 0.0
-    _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_a, wnf - f_a, ns)
-    S[s, 0] = Z[zr, 0]
-    S[s, 1] = 0.0
-    wnf1 = -(external_force_near(Z[zr, 0], t0 + T, nl, p, i, ec) - w_extra)
-    f_b = _nonfriction_force(S, s, u, wnf1, cont, p, i, ns)
-    if abs(f_b) <= fs:
-        _copy_row(S, s, Z, zr, ns)
-        return -1.0
+    if f_a0 == f_a0:
+        # the ends already tried (axis_step): not held
+        f_a, f_b = f_a0, f_b0
+        if abs(f_a) > fs:
+            return 0.0
+    else:
+        f_a = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
+        if abs(f_a) > fs:
+            return 0.0
+        _advance(Z, zr, S, s, mat_T, p, i, u, wnf - f_a, wnf - f_a, ns)
+        S[s, 0] = Z[zr, 0]
+        S[s, 1] = 0.0
+        wnf1 = -(external_force_near(Z[zr, 0], t0 + T, nl, p, i, ec) - w_extra)
+        f_b = _nonfriction_force(S, s, u, wnf1, cont, p, i, ns)
+        if abs(f_b) <= fs:
+            _copy_row(S, s, Z, zr, ns)
+            return -1.0
     edge = fs if f_b > 0.0 else -fs
     alpha = (edge - f_a) / (f_b - f_a)
     _advance(Z, zr, S, s + 1, mat_h, ph2, i, u, wnf - f_a, wnf - f_a, ns)
@@ -490,7 +534,26 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec
 
 @njit(cache=True, error_model="numpy")
 def _axis_step_slow(
-    Z, zr, stuck, u, t0, T, n_sub, level, cap0, mat_T, mat_h, cont, nl, p, i, S, s, w_extra
+    Z,
+    zr,
+    stuck,
+    u,
+    t0,
+    T,
+    n_sub,
+    level,
+    cap0,
+    mat_T,
+    mat_h,
+    cont,
+    nl,
+    p,
+    i,
+    S,
+    s,
+    w_extra,
+    f_a0,
+    f_b0,
 ):
     # Stuck, breaking away, near a velocity reversal, or in the Stribeck band: n_sub substeps
     # of T / n_sub with the matrices of substep level ``level`` (row p · N_SUB_LEVELS + level of
@@ -523,7 +586,26 @@ def _axis_step_slow(
         suspect = False  # sent here by the first-order hold's deviation, not by an event
     if stuck != 0.0:
         alpha = _hold_whole_period(
-            Z, zr, u, t0, T, mat_T, mat_h, p0 + 1, cont, nl, p, i, S, s, w_extra, fs, ns, ec
+            Z,
+            zr,
+            u,
+            t0,
+            T,
+            mat_T,
+            mat_h,
+            p0 + 1,
+            cont,
+            nl,
+            p,
+            i,
+            S,
+            s,
+            w_extra,
+            fs,
+            ns,
+            ec,
+            f_a0,
+            f_b0,
         )
         if alpha < 0.0:
             return 1.0
