@@ -153,3 +153,45 @@ def test_complex_actions_are_refused_vector():
     obs, *_ = venv.step(np.zeros((2, 2), dtype=np.float32))  # float32 and ints still work
     venv.step(np.zeros((2, 2), dtype=np.int64))
     assert obs.shape[0] == 2
+
+
+# --- per-env parameters without static friction on a plant that has it --------------------------
+# Found by this project's own benchmarking (2026-12-03): the initial stuck flag came from the
+# case's plant (static friction > 0), so with frictionless per-env parameters the first period
+# went down the stick–slip path, whose tests are fractions of f_s = 0, and never left it (the
+# step hung). The run is in a subprocess with a time limit, so that a regression fails here
+# instead of stalling the suite.
+_FRICTIONLESS_RUN = """
+import numpy as np, gymnasium as gym
+import contour_env
+from contour_env import ENV_ID
+from contour_env.env.contouring_env import ContouringEnv
+true = ContouringEnv(case="hsm2-circle-II").plant.params
+zero = np.zeros(true.n_axes)
+p = true.replace(static_N=zero, coulomb_N=zero)
+acts = np.random.default_rng(0).uniform(-1, 1, (40, 3, 2)).astype(np.float32)
+runs = []
+for kw in (dict(case="hsm2-circle-II", plant_params=[p] * 3),
+           dict(case="hsm2-circle-II", plant=p.to_dict())):
+    venv = gym.make_vec(ENV_ID, num_envs=3, vectorization_mode="vector_entry_point", **kw)
+    obs, _ = venv.reset(seed=0)
+    rows = [obs]
+    for a in acts:
+        obs, r, te, tr, info = venv.step(a)
+        rows.append(np.c_[obs, r, info["position"].reshape(3, -1)])
+    runs.append(np.concatenate([x.reshape(3, -1) for x in rows], axis=1))
+assert np.all(np.isfinite(runs[0]))
+assert np.array_equal(runs[0], runs[1]), "per-env parameters differ from the same custom plant"
+print("ok")
+"""
+
+
+def test_frictionless_per_env_params_on_a_plant_with_stiction_do_not_hang():
+    import subprocess
+    import sys
+
+    res = subprocess.run(
+        [sys.executable, "-c", _FRICTIONLESS_RUN], capture_output=True, text=True, timeout=600
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().endswith("ok")
