@@ -14,7 +14,10 @@ The linear model of the loop the learning acts on (:func:`axis_plant_model`,
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
+
+# scipy.signal is imported where a filter is designed or run, not with the module: it costs
+# about a second at start-up, and every command imports this module through the controller
+# registry (agents.ilc) whether it runs ILC or not (e.g. ``contour-env compare`` of pd, ccc)
 
 
 class ZeroPhaseLowPass:
@@ -31,6 +34,8 @@ class ZeroPhaseLowPass:
         nyquist = 0.5 / servo_period_s
         self.passthrough = self.cutoff_hz >= 0.999 * nyquist
         if not self.passthrough:
+            from scipy import signal
+
             self.b, self.a = signal.butter(self.order, self.cutoff_hz / nyquist)
 
     def __call__(self, x: np.ndarray, axis: int = 1) -> np.ndarray:
@@ -42,6 +47,8 @@ class ZeroPhaseLowPass:
             return np.array(x, dtype=np.float64)
         # constant extension: the trial starts at rest and ends in the settle time (held
         # values), so neither edge is a jump the filter should ring on
+        from scipy import signal
+
         return signal.filtfilt(self.b, self.a, x, axis=axis, padtype="constant", padlen=padlen)
 
 

@@ -206,7 +206,6 @@ def cmd_compare(args) -> int:
 
     from .io import atomic_write_json
     from .metrics import check_metrics
-    from .plotting import plot_runs
 
     # rows are names or variants (ccc:wp=3e4:wd=20); each row is labelled as typed
     names = [c.strip() for c in args.controllers.split(",") if c.strip()]
@@ -271,7 +270,9 @@ def cmd_compare(args) -> int:
         atomic_write_json(args.json, out)
         print(f"wrote {args.json}")
     if args.plot:
+        # matplotlib only when a plot is asked for (about a second of start-up)
         from .cases import build_setup
+        from .plotting import plot_runs
 
         keys = ("case", "plant", "path", "ideal", "feedrate_m_s")
         path = build_setup(**{k: kw[k] for k in keys if k in kw}).path  # cached: compare's

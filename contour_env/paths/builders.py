@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from .geometry import PathGeometry
 from .segments import Arc, Cubic, Line, _vec3
@@ -201,6 +200,10 @@ def spline(points, closed=False) -> PathGeometry:
         )
     chords = _no_duplicates("points", pts)
     knots = np.concatenate([[0.0], np.cumsum(chords)])
+    # scipy.interpolate where a spline is built, not with the module (half a second of
+    # start-up for every command)
+    from scipy.interpolate import CubicSpline
+
     cs = CubicSpline(knots, pts, bc_type="periodic" if closed else "not-a-knot", axis=0)
     segs = []
     start = pts[0]
