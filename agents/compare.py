@@ -113,6 +113,10 @@ def compare(
             record = run_episode(env, controller, seed=seed)
         m = score(record, metrics=metrics)
         row = {"controller": name, "stable": record.completed, **m}
+        if getattr(controller, "is_base", False):
+            # no checkpoint beat the base on validation: the agent is its base (zero residual)
+            row["agent_is_base"] = True
+            row["agent_base"] = controller.base_name
         results.append(row)
         records[name] = record
         if progress:

@@ -63,6 +63,15 @@ from gymnasium.vector.utils import batch_space
 
 from .base import Controller, _core_of
 from .registry import FIVE_AXIS_CONTROLLERS, controller_names, make_controller, plant_family_of
+from .residual_law import (
+    action_size,
+    axis_observation,
+    check_flag,
+    check_frame,
+    path_weights,
+    residual_command,
+    to_path_frame,
+)
 
 DEFAULT_SCALE = 0.05
 # what of the env observation the agent sees (see observation_fields)
@@ -181,17 +190,55 @@ def observation_fields(core, observation: str):
     return np.arange(2 * core.dim)
 
 
-def _obs_space(core, observe_base_command: bool, n_axes: int, observation="full") -> spaces.Box:
-    clip = core.config.obs_clip
+def observation_size(core, observation: str, observe_base_command: bool, observe_axes: bool):
+    """Length of the agent's observation: the selected env fields, the axis observation
+    (2 n) and the base command (n)."""
     fields = observation_fields(core, observation)
-    dim = (core.obs_dim if fields is None else len(fields)) + (
-        n_axes if observe_base_command else 0
-    )
+    seen = core.obs_dim if fields is None else len(fields)
+    return seen + (2 * core.dim if observe_axes else 0) + (core.dim if observe_base_command else 0)
+
+
+def _obs_space(w) -> spaces.Box:
+    clip = w.core.config.obs_clip
+    dim = observation_size(w.core, w.observation, w.observe_base_command, w.observe_axes)
     return spaces.Box(-clip, clip, (dim,), dtype=np.float32)
 
 
 def _select(obs: np.ndarray, fields) -> np.ndarray:
     return obs if fields is None else obs[..., fields]
+
+
+class AgentView:
+    """What the agent sees, built from the env observation and the servo signals of the same
+    sample (batched): the selected env fields (in the path frame, the previous-action fields
+    rotated into it), then the axis observation, then the base command
+    (:mod:`agents.residual_law`)."""
+
+    def __init__(self, core, observation, residual_frame, observe_axes, observe_base_command):
+        self.fields = observation_fields(core, observation)
+        self.n = core.dim
+        # the last n fields of the full observation: the previous action, per axis
+        self.rotate_prev = residual_frame == "path" and self.fields is None
+        self.observe_axes = observe_axes
+        self.observe_base_command = observe_base_command
+        self.feed = float(core.setup.feedrate_m_s)
+        self.acc = float(core.setup.max_accel_m_s2)
+        self.clip = float(core.config.obs_clip)
+
+    def __call__(self, obs, signals, base_action) -> np.ndarray:
+        x = _select(np.asarray(obs, dtype=np.float32), self.fields)
+        if self.rotate_prev:
+            x = x.copy()
+            n = self.n
+            x[:, -n:] = to_path_frame(x[:, -n:], signals["frame"])
+        if not (self.observe_axes or self.observe_base_command):
+            return x
+        parts = [x]
+        if self.observe_axes:
+            parts.append(axis_observation(signals, self.feed, self.acc, self.clip))
+        if self.observe_base_command:
+            parts.append(np.asarray(base_action, dtype=np.float32))
+        return np.concatenate(parts, axis=1).astype(np.float32)
 
 
 def _agent_action(action, shape, what="action") -> np.ndarray:
@@ -208,20 +255,50 @@ def _agent_action(action, shape, what="action") -> np.ndarray:
 
 def _configure(
     w, env, core, base, scale, observe_base_command, observation, action_repeat,
-    residual_penalty, base_kwargs, residual_axes,
+    residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
 ) -> None:  # fmt: skip
     """The residual law's settings, checked, on wrapper ``w`` (shared by both wrappers)."""
     w.core = core
     w.scale = _check_scale(scale)
     w.residual_axes = _check_axes(residual_axes)
+    w.residual_frame = check_frame(residual_frame)
+    w.gate = check_flag(gate, "gate")
+    w.observe_axes = check_flag(observe_axes, "observe_axes")
     w._axis_mask = _AxisMask(core, residual_axes)
     w.observe_base_command = bool(observe_base_command)
     w.observation = observation
-    w._fields = observation_fields(core, observation)
+    w._view = AgentView(core, observation, w.residual_frame, w.observe_axes, w.observe_base_command)
     w.action_repeat = _check_repeat(action_repeat, core.T)
     w.residual_penalty = _check_penalty(residual_penalty)
     w.base = make_base(base, env, base_kwargs)
     w.n_axes = core.dim
+    w.n_actions = action_size(core.dim, w.gate)
+    w._weights = path_weights(core.setup.plant.nominal)
+
+
+def _residual(w, a, signals):
+    """(residual (B, n), gate (B,)) of wrapper ``w`` for clipped agent actions ``a``."""
+    return residual_command(
+        a, signals["frame"], w.scale, w._axis_mask(), w.residual_frame, w.gate, w._weights
+    )
+
+
+def _penalty(w, res) -> np.ndarray:
+    """residual_penalty · ‖r / scale‖² / n per env: the applied residual (after frame, clip,
+    mask and gate), in units of the authority."""
+    return w.residual_penalty * np.sum((res / w.scale) ** 2, axis=1) / w.n_axes
+
+
+_WRAPPER_DOC_ARGS = """
+    residual_frame : ``"axes"`` (default here and for agents trained before the option: one
+        action component per machine axis) or ``"path"`` (the action pushes along the task
+        frame's t, n (, b), rotated onto the axes every servo period; see
+        :mod:`agents.residual_law`).
+    gate : bool — one more action component g = clip(a_g, 0, 1) multiplying the residual
+        (default False).
+    observe_axes : bool — append the per-axis reference velocity and acceleration to the
+        observation (default False).
+"""
 
 
 class ResidualWrapper(gym.Wrapper):
@@ -238,15 +315,20 @@ class ResidualWrapper(gym.Wrapper):
         (only the task-frame position and velocity errors: a policy of the errors alone, which
         cannot tell one path from another).
     action_repeat : int or None — servo periods per agent action (None: one per ms).
-    residual_penalty : float — reward weight on ‖a_agent‖² / n (default 0; the trainer uses 1).
+    residual_penalty : float — reward weight on ‖r / scale‖² / n, r the applied residual
+        (default 0; the trainer uses 1).
     base_kwargs : dict — arguments of the base controller when ``base`` is a name.
     residual_axes : ``"path"`` (default: a residual only on the axes the path uses, see
         :func:`path_axes_mask`; zero on the others, so an agent cannot disturb an axis that
         should stand still) or ``"all"`` (every axis; the agents shipped before this option).
+    residual_frame, gate, observe_axes : see below.
 
     ``info`` gains ``base_action`` and ``residual_action`` (fractions of the force limit, the
-    last servo period of the step) and ``servo_steps`` (periods simulated by the step).
+    last servo period of the step), ``gate`` (g, 1 without a gate) and ``servo_steps``
+    (periods simulated by the step).
     """
+
+    __doc__ += _WRAPPER_DOC_ARGS
 
     def __init__(
         self,
@@ -260,6 +342,9 @@ class ResidualWrapper(gym.Wrapper):
         base_kwargs=None,
         observation="full",
         residual_axes="path",
+        residual_frame="axes",
+        gate=False,
+        observe_axes=False,
     ):
         holder, core = _core_of(env)
         if hasattr(holder, "num_envs"):
@@ -267,21 +352,20 @@ class ResidualWrapper(gym.Wrapper):
         super().__init__(env)
         _configure(
             self, env, core, base, scale, observe_base_command, observation, action_repeat,
-            residual_penalty, base_kwargs, residual_axes,
+            residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
         )  # fmt: skip
         n = core.dim
-        self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
-        self.observation_space = _obs_space(core, self.observe_base_command, n, observation)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), dtype=np.float32)
+        self.observation_space = _obs_space(self)
         self._base_next = np.zeros((1, n), dtype=np.float32)
+        self._sig = None
 
     def _observe(self, obs):
-        obs = _select(obs, self._fields)
-        if not self.observe_base_command:
-            return obs
-        return np.concatenate([obs, self._base_next[0]]).astype(np.float32)
+        return self._view(np.asarray(obs)[None, :], self._sig, self._base_next)[0]
 
     def _next_base(self) -> None:
-        self._base_next = self.base.action(self.core.signals_batch())
+        self._sig = self.core.signals_batch()
+        self._base_next = self.base.action(self._sig)
 
     def reset(self, *, seed=None, options=None):
         obs, info = self.env.reset(seed=seed, options=options)
@@ -290,26 +374,28 @@ class ResidualWrapper(gym.Wrapper):
         return self._observe(obs), info
 
     def step(self, action):
-        res = self.scale * _agent_action(action, (self.n_axes,)) * self._axis_mask()
+        a = _agent_action(action, (1, self.n_actions))
         total, steps = 0.0, 0
         obs = info = None
         terminated = truncated = False
         applied = None
+        pen = 0.0
         for _ in range(self.action_repeat):
-            applied = np.clip(self._base_next[0].astype(np.float64) + res, -1.0, 1.0)
+            res, g = _residual(self, a, self._sig)
+            applied = np.clip(self._base_next[0].astype(np.float64) + res[0], -1.0, 1.0)
             obs, reward, terminated, truncated, info = self.env.step(applied)
             total += float(reward)
+            pen += float(_penalty(self, res)[0]) if self.residual_penalty else 0.0
             steps += 1
             base_used = self._base_next[0]
             self._next_base()
             if terminated or truncated:
                 break
-        reward = total / steps
-        if self.residual_penalty:
-            reward -= self.residual_penalty * float(np.sum((res / self.scale) ** 2)) / self.n_axes
+        reward = (total - pen) / steps
         info = dict(info)
         info["base_action"] = base_used.astype(np.float64)
         info["residual_action"] = applied - base_used
+        info["gate"] = float(g[0])
         info["servo_steps"] = steps
         return self._observe(obs), reward, terminated, truncated, info
 
@@ -340,6 +426,9 @@ class ResidualVectorWrapper(VectorWrapper):
         observation="full",
         autoreset_mode="next_step",
         residual_axes="path",
+        residual_frame="axes",
+        gate=False,
+        observe_axes=False,
     ):
         holder, core = _core_of(env)
         if not hasattr(holder, "num_envs"):
@@ -355,26 +444,24 @@ class ResidualVectorWrapper(VectorWrapper):
         )
         _configure(
             self, env, core, base, scale, observe_base_command, observation, action_repeat,
-            residual_penalty, base_kwargs, residual_axes,
+            residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
         )  # fmt: skip
         n = core.dim
-        self.n_axes = n
-        self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
-        self.single_observation_space = _obs_space(core, self.observe_base_command, n, observation)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), dtype=np.float32)
+        self.single_observation_space = _obs_space(self)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._rng = np.random.default_rng()
         self._base_next = np.zeros((self.num_envs, n), dtype=np.float32)
+        self._sig = None
 
     def _observe(self, obs):
-        obs = _select(obs, self._fields)
-        if not self.observe_base_command:
-            return obs
-        return np.concatenate([obs, self._base_next], axis=1).astype(np.float32)
+        return self._view(obs, self._sig, self._base_next)
 
     def _next_base(self) -> None:
-        self._base_next = np.asarray(self.base.action(self.core.signals_batch()))
+        self._sig = self.core.signals_batch()
+        self._base_next = np.asarray(self.base.action(self._sig))
 
     def reset(self, *, seed=None, options=None):
         obs, info = self.env.reset(seed=seed, options=options)
@@ -393,48 +480,49 @@ class ResidualVectorWrapper(VectorWrapper):
 
     def step(self, actions):
         core = self.core
-        B, n = self.num_envs, self.n_axes
-        res = self.scale * _agent_action(actions, (B, n), "actions") * self._axis_mask()
+        B = self.num_envs
+        a = _agent_action(actions, (B, self.n_actions), "actions")
         resetting = self._needs_reset.copy()
         if resetting.any():
+            # not stepped in this step (their residual is not applied)
             self._reset_envs(resetting)
         active = ~resetting
         total = np.zeros(B)
+        pen = np.zeros(B)
         steps = np.zeros(B, dtype=np.int64)
         terminated = np.zeros(B, dtype=bool)
         truncated = np.zeros(B, dtype=bool)
         base_used = self._base_next
+        res, g = _residual(self, a, self._sig)
         for j in range(self.action_repeat):
             if j > 0:
                 self._next_base()
+                res, g = _residual(self, a, self._sig)
             base_used = self._base_next
             applied = np.clip(base_used.astype(np.float64) + res, -1.0, 1.0)
             core.step(np.ascontiguousarray(applied), active.copy())
             total[active] += core.reward[active]
+            if self.residual_penalty:
+                pen[active] += _penalty(self, res)[active]
             steps[active] += 1
             terminated |= active & core.terminated
             truncated |= active & core.truncated
             active &= ~(core.terminated | core.truncated)
             if not active.any():
                 break
-        reward = np.where(steps > 0, total / np.maximum(steps, 1), 0.0)
-        if self.residual_penalty:
-            pen = self.residual_penalty * np.sum((res / self.scale) ** 2, axis=1) / n
-            reward = np.where(steps > 0, reward - pen, 0.0)
+        reward = np.where(steps > 0, (total - pen) / np.maximum(steps, 1), 0.0)
         done = terminated | truncated
         info = core.batch_info()
         info["base_action"] = base_used.astype(np.float64)
         info["residual_action"] = np.clip(base_used + res, -1.0, 1.0) - base_used
+        info["gate"] = g
         info["servo_steps"] = steps
         obs = core.obs.copy()
         base_reset = resetting
         if self.same_step and done.any():
             # the final observation's base part is the last applied base action (the base
             # controller is not asked again at a terminal state)
-            seen = _select(obs, self._fields)
-            final = (
-                seen if not self.observe_base_command else np.concatenate([seen, base_used], axis=1)
-            )
+            final = self._view(obs, core.signals_batch(), base_used)
             self._reset_envs(done)
             obs = core.obs.copy()
             info["final_obs"] = np.where(done[:, None], final, 0.0).astype(np.float32)
@@ -482,9 +570,15 @@ class ResidualAgent(Controller):
     the bound env's current observation (``env.core.obs``, the observation the env returned
     last), normalises it with the saved VecNormalize statistics, queries the model every
     ``action_repeat`` servo periods (deterministic actions by default) and returns
-    (a_base + scale · a_agent) × force limit, in the plant's units. ``action`` returns the
-    applied fraction exactly as :class:`ResidualWrapper` computes it, so
-    :func:`contour_env.evaluation.evaluate` scores the agent as it was trained.
+    (a_base + r) × force limit, in the plant's units, r the residual of
+    :func:`agents.residual_law.residual_command` (its frame, gate and axis mask as in
+    ``agent.json``). ``action`` returns the applied fraction exactly as
+    :class:`ResidualWrapper` computes it, so :func:`contour_env.evaluation.evaluate` scores
+    the agent as it was trained.
+
+    An agent whose ``agent.json`` says ``"kept": "base"`` (no checkpoint beat the base
+    controller on the validation set, :mod:`agents.rl.validation`) is its base: ``is_base``
+    is True and the applied action is the base's, bit for bit; the network is not queried.
     """
 
     name = "residual"
@@ -526,15 +620,20 @@ class ResidualAgent(Controller):
                 f"{', '.join(OBSERVATIONS)}"
             )
         self.action_repeat = int(meta["action_repeat"])
-        # agents trained before the option had a residual on every axis
+        # agents trained before the options: a residual on every axis, in the axes frame,
+        # no gate, no axis observation
         self.residual_axes = _check_axes(meta.get("residual_axes", "all"))
+        self.residual_frame = check_frame(meta.get("residual_frame", "axes"))
+        self.gate = check_flag(meta.get("gate", False), "agent.json: gate")
+        self.observe_axes = check_flag(meta.get("observe_axes", False), "agent.json: observe_axes")
+        self.is_base = meta.get("kept") == "base"
         self._axis_mask = None
         self.base_name = meta["base"]
         self.base_kwargs = dict(meta.get("base_kwargs") or {})
         self.base: Controller | None = None
-        self._res = None
+        self._a = None
         self._count = None
-        self._fields = None
+        self._view = None
 
     def bind(self, env) -> ResidualAgent:
         _, core = _core_of(env)
@@ -550,16 +649,21 @@ class ResidualAgent(Controller):
                 f"env: the agent in {self.model_dir} was trained for plant {want_plant!r}; the "
                 f"env's plant is {plant.name!r} (train an agent for it with `contour-env train`)"
             )
-        self._fields = observation_fields(core, self.observation)
-        seen = core.obs_dim if self._fields is None else len(self._fields)
-        obs_dim = seen + (want_axes if self.observe_base_command else 0)
+        obs_dim = observation_size(
+            core, self.observation, self.observe_base_command, self.observe_axes
+        )
         if obs_dim != int(self.meta["obs_dim"]):
             raise ValueError(
                 f"env: observation size {obs_dim} differs from the agent's {self.meta['obs_dim']}"
                 " (preview_times_s or observation options changed)"
             )
+        self._view = AgentView(
+            core, self.observation, self.residual_frame, self.observe_axes,
+            self.observe_base_command,
+        )  # fmt: skip
         self.base = make_base(self.base_name, env, self.base_kwargs)
         self._axis_mask = _AxisMask(core, self.residual_axes)
+        self._weights = path_weights(plant.nominal)
         super().bind(env)
         return self
 
@@ -567,19 +671,18 @@ class ResidualAgent(Controller):
         if self.base is None:
             return
         self.base.reset(mask)
-        if mask is None or self._res is None:
-            self._res = np.zeros((self.n_envs, self.n_axes))
+        n_act = action_size(self.n_axes, self.gate)
+        if mask is None or self._a is None:
+            self._a = np.zeros((self.n_envs, n_act))
             self._count = np.zeros(self.n_envs, dtype=np.int64)
         else:
-            self._res[mask] = 0.0
+            self._a[mask] = 0.0
             self._count[mask] = 0
 
-    def residual(self, obs: np.ndarray, base_action: np.ndarray) -> np.ndarray:
-        """The agent's action in [-1, 1] (B, A) for raw env observations (B, obs_dim)."""
-        x = _select(np.asarray(obs, dtype=np.float32), self._fields)
-        if self.observe_base_command:
-            x = np.concatenate([x, np.asarray(base_action, dtype=np.float32)], axis=1)
-        x = self.norm(x)
+    def agent_action(self, obs: np.ndarray, signals: dict, base_action: np.ndarray):
+        """The agent's action in [-1, 1] (B, n [+ 1]) for raw env observations (B, obs_dim)
+        and the servo signals of the same sample."""
+        x = self.norm(self._view(obs, signals, base_action))
         a, _ = self.model.predict(x, deterministic=self.deterministic)
         return np.clip(np.asarray(a, dtype=np.float64).reshape(x.shape[0], -1), -1.0, 1.0)
 
@@ -591,13 +694,18 @@ class ResidualAgent(Controller):
 
         sig = signals_to_batch(signals)
         base_a = np.asarray(self.base.action(sig))
+        if self.is_base:
+            return np.clip(base_a.astype(np.float64), -1.0, 1.0)
         B = base_a.shape[0]
         due = self._count[:B] % self.action_repeat == 0
         if due.any():
-            a = self.residual(self._core.obs[:B], base_a)
-            self._res[:B][due] = a[due]
+            a = self.agent_action(self._core.obs[:B], sig, base_a)
+            self._a[:B][due] = a[due]
         self._count[:B] += 1
-        res = self.scale * self._res[:B] * self._axis_mask()
+        res, _ = residual_command(
+            self._a[:B], sig["frame"], self.scale, self._axis_mask(), self.residual_frame,
+            self.gate, self._weights,
+        )  # fmt: skip
         return np.clip(base_a.astype(np.float64) + res, -1.0, 1.0)
 
     def act(self, signals: dict) -> np.ndarray:

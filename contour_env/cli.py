@@ -228,6 +228,12 @@ def cmd_compare(args) -> int:
             theta = row.get("rms_orientation_error_arcsec")  # five-axis runs
             text += f", RMS orientation error {theta:.2f}″" if theta is not None else ""
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
+            if row.get("agent_is_base"):
+                print(
+                    f"    ({name}: the agent is its base {row['agent_base']}: no checkpoint beat "
+                    'it on the validation set, agent.json "kept": "base")',
+                    flush=True,
+                )
 
     metrics = tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
     check_metrics(metrics)

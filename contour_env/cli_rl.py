@@ -78,6 +78,11 @@ def config_from_args(args):
     )
     if args.validation_paths is not None:
         kw["validation_paths"] = args.validation_paths
+    # the residual law's options: TrainConfig's defaults unless given
+    for key in ("residual_frame", "gate", "observe_axes"):
+        value = getattr(args, key, None)
+        if value is not None:
+            kw[key] = value
     if args.net_arch:
         try:
             kw["net_arch"] = tuple(int(v) for v in args.net_arch.split(","))
@@ -131,7 +136,12 @@ def cmd_train(args) -> int:
         print(
             f"validation ({cfg.validation_paths} generated paths): kept the model of "
             f"{res['kept_timesteps']} timesteps, RMS contour error {_um(val)} (base {cfg.base}: "
-            f"{_um(base)})"
+            f"{_um(base)}), {res['validation_score']:.3f}x the base on average, no path worse"
+        )
+    elif res["kept"] == "base":
+        print(
+            f"validation ({cfg.validation_paths} generated paths): no checkpoint beat the base "
+            f"{cfg.base} on every path; kept the base (the agent is its base: zero residual)"
         )
     else:
         print("no validation: kept the final model")
@@ -156,6 +166,11 @@ def cmd_evaluate(args) -> int:
     if not args.case and not args.gcode:
         raise ValueError("evaluate: give --case X, or --plant P with --gcode FILE")
     agent = ResidualAgent(args.model)
+    if agent.is_base:
+        print(
+            f"the agent in {args.model} is its base {agent.base_name}: no checkpoint beat it on "
+            'the validation set (agent.json "kept": "base"); its rows equal the base\'s'
+        )
     kw = _target_kwargs(args)
     env = gym.make(ENV_ID, **kw)
     setup = env.unwrapped.setup
@@ -274,6 +289,25 @@ def add_rl_commands(sub) -> None:
         choices=("path", "all"),
         default="path",
         help="axes that take a residual: those the path uses (path, default) or all",
+    )
+    p.add_argument(
+        "--residual-frame",
+        choices=("path", "axes"),
+        default=None,
+        help="the frame the agent acts in: the path's tangent/normal/binormal (path, default) "
+        "or the machine axes (axes)",
+    )
+    p.add_argument(
+        "--gate",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="a learned gate g in [0, 1] on the residual, starting closed (default off)",
+    )
+    p.add_argument(
+        "--observe-axes",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="give the agent each axis' reference velocity and acceleration (default on)",
     )
     p.add_argument(
         "--randomize-plant",

@@ -38,6 +38,7 @@ from pathlib import Path
 
 from agents.registry import controller_names
 from agents.residual import DEFAULT_SCALE, OBSERVATIONS, RESIDUAL_AXES
+from agents.residual_law import RESIDUAL_FRAMES
 
 from .families import check_families
 from .heldout import refuse_heldout
@@ -74,6 +75,12 @@ class TrainConfig:
     residual_penalty: float = 1.0
     # which axes take a residual: "path" (the axes the path uses) or "all"
     residual_axes: str = "path"
+    # the frame the agent acts in ("path": t, n, b; "axes": machine axes), a learned gate on
+    # the residual, the per-axis reference velocity and acceleration in the observation
+    # (agents.residual_law; the defaults are the README ablation's choice)
+    residual_frame: str = "path"
+    gate: bool = False
+    observe_axes: bool = True
     # env reward weights (ContouringEnv)
     w_contour: float = 1.0
     w_lag: float = 0.0
@@ -147,6 +154,14 @@ class TrainConfig:
                 f"residual_axes: must be one of {', '.join(RESIDUAL_AXES)}, got "
                 f"{self.residual_axes!r}"
             )
+        if self.residual_frame not in RESIDUAL_FRAMES:
+            raise ValueError(
+                f"residual_frame: must be one of {', '.join(RESIDUAL_FRAMES)}, got "
+                f"{self.residual_frame!r}"
+            )
+        for key in ("gate", "observe_axes"):
+            if not isinstance(getattr(self, key), bool):
+                raise ValueError(f"{key}: expected true or false, got {getattr(self, key)!r}")
         if self.gcode and not self.plant:
             raise ValueError("plant: G-code training paths need --plant")
         for f in self.gcode:
@@ -275,6 +290,9 @@ class TrainConfig:
             "action_repeat": self.action_repeat,
             "residual_penalty": self.residual_penalty,
             "residual_axes": self.residual_axes,
+            "residual_frame": self.residual_frame,
+            "gate": self.gate,
+            "observe_axes": self.observe_axes,
         }
 
     # --- JSON ------------------------------------------------------------------------------
@@ -298,6 +316,10 @@ class TrainConfig:
             raise ValueError(f"config: format {fmt!r}, expected {CONFIG_FORMAT!r}")
         # a run configured before residual_axes existed had a residual on every axis
         data.setdefault("residual_axes", "all")
+        # ... and before the path frame, the gate and the axis observation: the axes frame
+        data.setdefault("residual_frame", "axes")
+        data.setdefault("gate", False)
+        data.setdefault("observe_axes", False)
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:

@@ -136,6 +136,9 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
         "observe_base_command": cfg.observe_base_command,
         "observation": cfg.observation,
         "residual_axes": cfg.residual_axes,
+        "residual_frame": cfg.residual_frame,
+        "gate": cfg.gate,
+        "observe_axes": cfg.observe_axes,
         "action_repeat": int(g.action_repeat),
         "servo_period_s": float(g.core.T),
         "cases": list(cfg.cases),
@@ -278,9 +281,14 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         """Score the policy on the validation paths; keep it if it is the best so far."""
         t = int(model.num_timesteps)
         rms, per_path = validator(meta_now(), model, normalizer_of(venv))
-        val_curve.append(curve_point(t, rms, per_path))
-        if best.offer(t, rms, lambda d: write_files(d, False)):
-            log(f"validation: new best {rms:.4g} µm at {t} timesteps")
+        point = curve_point(t, rms, per_path, validator)
+        val_curve.append(point)
+        score, eligible = validator.judge(per_path)
+        if best.offer(t, rms, score, eligible, lambda d: write_files(d, False)):
+            log(
+                f"validation: new best {rms:.4g} µm, {score:.3f}x the base on average, at {t} "
+                "timesteps"
+            )
 
     # training wall time (s) without the evaluations and validations, carried over a resume:
     # the curves' "train_s", what time-to-target figures read
@@ -340,7 +348,10 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 val = val_curve[-1]["rms_contour_error_um"]
                 if val is not None:  # None: a validation path not completed
                     self.logger.record("eval/validation_rms_contour_error_um", val)
-                shown.update(val_best_um=f"{best.rms:.3g}", val_base_um=f"{validator.base_rms:.3g}")
+                shown.update(
+                    val_ratio=f"{val_curve[-1]['score'] or float('inf'):.3g}",
+                    kept="base" if best.kept_base else f"{best.score:.3g}",
+                )
             if self.bar is not None:
                 self.bar.set_postfix(**shown)
             if evaluator is not None:
@@ -473,15 +484,24 @@ def _log_start(log, cfg: TrainConfig, raw, evaluator, validator) -> None:
 
 
 def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curve, summary):
-    """The kept model's files at the top of ``out`` (the best by validation, or the final
-    model without validation), its ``agent.json`` with the run's figures, and the validation
-    curve; returns the summary's validation keys."""
-    source = best.folder if best is not None and best.folder is not None else final_dir
+    """The kept model's files at the top of ``out`` (the best by validation, the final model
+    without validation, or — when no checkpoint beat the base on the validation set — the
+    final model's files marked ``"kept": "base"``, which :class:`ResidualAgent` runs as the
+    base alone), its ``agent.json`` with the run's figures, and the validation curve; returns
+    the summary's validation keys."""
+    if best is None:
+        source, kept = final_dir, "final"
+    elif best.kept_base:
+        source, kept = final_dir, "base"
+    else:
+        source, kept = best.folder, "best-validation"
     for name in MODEL_FILES:
         atomic_save(out / name, lambda p, src=source / name: shutil.copyfile(src, p))
     meta = json.loads((source / "agent.json").read_text())
+    if kept == "base":
+        meta["timesteps"] = 0  # the zero residual: no training step is in the kept model
     extra = {
-        "kept": "best-validation" if source != final_dir else "final",
+        "kept": kept,
         "final_timesteps": summary["timesteps"],
         "train_wall_s": summary["wall_s"],
         "base_rms_contour_error_um": summary["base_rms_contour_error_um"],
@@ -489,25 +509,28 @@ def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curv
         "validation_paths": cfg.validation_paths,
         "validation_rms_contour_error_um": None,
         "validation_base_rms_contour_error_um": None,
+        "validation_score": None,
     }
     if validator is not None:
         record = validation_record(validator, cfg.base, val_curve, best)
         atomic_write_json(out / "validation_curve.json", record)
         extra["validation_rms_contour_error_um"] = record["best"]["validation_rms_contour_error_um"]
         extra["validation_base_rms_contour_error_um"] = record["base_rms_contour_error_um"]
+        extra["validation_score"] = record["best"]["validation_score"]
         points = [
             {"timesteps": p["timesteps"], "rms_contour_error_um": p["rms_contour_error_um"]}
             for p in val_curve
             if p["rms_contour_error_um"] is not None
         ]
+        where = "the base kept" if best.kept_base else f"kept: {best.timesteps} timesteps"
         plot_learning_curve(
             points,
             validator.base_rms,
             cfg.base,
             f"{cfg.algo} + {cfg.base}, {cfg.plant_name}: validation ({len(validator.paths)} "
-            f"generated paths), best at {best.timesteps} timesteps",
+            f"generated paths), {where}",
             out / "validation_curve.png",
-            best=(best.timesteps, best.rms),
+            best=None if best.kept_base else (best.timesteps, best.rms),
         )
     meta.update(extra)
     atomic_write_json(out / "agent.json", meta)
@@ -516,6 +539,7 @@ def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curv
         "kept_timesteps": int(meta["timesteps"]),
         "validation_rms_contour_error_um": extra["validation_rms_contour_error_um"],
         "validation_base_rms_contour_error_um": extra["validation_base_rms_contour_error_um"],
+        "validation_score": extra["validation_score"],
         "validation_curve": list(val_curve),
         "gcode": meta["gcode"],
     }

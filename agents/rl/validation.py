@@ -1,5 +1,13 @@
 """Keep-best-by-validation: score the policy on a fixed set of generated paths and keep the
-checkpoint with the lowest mean RMS contour error (docs/RESIDUAL_TRAINING.md).
+checkpoint that does best against the base controller (docs/RESIDUAL_TRAINING.md).
+
+The rule that makes an agent never worse than its base, as a mechanism: the **base itself**
+(the zero residual) is the first candidate, with score 1. A checkpoint is *eligible* when its
+RMS contour error is at most the base's on **every** validation path (ratio ≤ 1 path by path);
+its score is the **mean ratio** agent / base over the paths (each part counts the same, as in
+the README's held-out table). An eligible checkpoint with a strictly lower score than the
+incumbent replaces it. When none does, the model kept is the base: ``agent.json`` says
+``"kept": "base"`` and :class:`agents.residual.ResidualAgent` applies the base's command alone.
 
 The validation set (:func:`agents.rl.families.validation_set`) is generated from seeds that
 training never draws; it contains no named case and no held-out program. Each path is scored
@@ -62,6 +70,24 @@ class Validator:
         per_path = [self._score(p, agent) for p in self.paths]
         return _mean(per_path), per_path
 
+    def ratios(self, per_path: list) -> list:
+        """Agent / base RMS per path (∞ where the agent did not complete a path the base did;
+        1 where neither did, 0 where only the base failed)."""
+        out = []
+        for a, b in zip(per_path, self.base_per_path, strict=True):
+            if not math.isfinite(b):
+                out.append(1.0 if not math.isfinite(a) else 0.0)
+            elif not math.isfinite(a):
+                out.append(math.inf)
+            else:
+                out.append(a / b if b > 0 else (1.0 if a == 0 else math.inf))
+        return out
+
+    def judge(self, per_path: list) -> tuple[float, bool]:
+        """(score, eligible): the mean ratio to the base, and whether no path is worse."""
+        r = self.ratios(per_path)
+        return _mean(r), bool(all(x <= 1.0 for x in r))
+
     def describe(self) -> list[dict]:
         return [p.describe() for p in self.paths]
 
@@ -76,42 +102,57 @@ def _json_number(x: float):
 
 
 class BestKeeper:
-    """The best checkpoint by validation under ``<out>/best``; resumes from the one there."""
+    """The kept model by validation: the base controller (score 1) until an eligible
+    checkpoint scores lower; that checkpoint lives under ``<out>/best`` (resumed from there).
+    ``timesteps`` is None while the base is kept."""
 
     def __init__(self, out: Path):
         self.root = Path(out) / BEST_DIR
         self.timesteps: int | None = None
-        self.rms = math.inf
+        self.score = 1.0
+        self.rms = math.nan  # the kept checkpoint's mean RMS (µm); the base's is the validator's
         dirs = checkpoint_dirs(self.root)
         if dirs:
             verify(dirs[-1])
             state = json.loads((dirs[-1] / BEST_STATE).read_text())
-            self.timesteps = int(state["timesteps"])
-            rms = state["validation_rms_contour_error_um"]
-            self.rms = math.inf if rms is None else float(rms)
+            if "validation_score" in state:  # a run from before the base was a candidate
+                self.timesteps = int(state["timesteps"])
+                self.score = float(state["validation_score"])
+                rms = state["validation_rms_contour_error_um"]
+                self.rms = math.inf if rms is None else float(rms)
+
+    @property
+    def kept_base(self) -> bool:
+        return self.timesteps is None
 
     @property
     def folder(self) -> Path | None:
+        if self.kept_base:
+            return None
         dirs = checkpoint_dirs(self.root)
         return dirs[-1] if dirs else None
 
-    def offer(self, timesteps: int, rms: float, writer) -> bool:
-        """Keep this model (``writer(folder)`` writes its files) if its validation RMS is
-        strictly lower than the best so far (the earlier one wins a tie); a policy that does
-        not complete every path (∞) is kept only while nothing better exists."""
-        first = self.timesteps is None
-        if not (first or rms < self.rms):
+    def offer(self, timesteps: int, rms: float, score: float, eligible: bool, writer) -> bool:
+        """Keep this model (``writer(folder)`` writes its files) if it is eligible (no
+        validation path worse than the base) and its score (mean ratio to the base) is
+        strictly lower than the incumbent's (the base's 1, or an earlier checkpoint's; the
+        earlier one wins a tie)."""
+        if not (eligible and score < self.score):
             return False
 
         def write(folder: Path) -> None:
             writer(folder)
             atomic_write_json(
                 folder / BEST_STATE,
-                {"timesteps": int(timesteps), "validation_rms_contour_error_um": _json_number(rms)},
+                {
+                    "timesteps": int(timesteps),
+                    "validation_rms_contour_error_um": _json_number(rms),
+                    "validation_score": float(score),
+                },
             )
 
         write_checkpoint(self.root, int(timesteps), write, keep=1)
-        self.timesteps, self.rms = int(timesteps), float(rms)
+        self.timesteps, self.rms, self.score = int(timesteps), float(rms), float(score)
         return True
 
 
@@ -124,15 +165,25 @@ def validation_record(validator: Validator, base: str, curve: list, best: BestKe
         "paths": validator.describe(),
         "curve": curve,
         "best": {
+            "kept": "base" if best.kept_base else "best-validation",
             "timesteps": best.timesteps,
-            "validation_rms_contour_error_um": _json_number(best.rms),
+            "validation_rms_contour_error_um": _json_number(
+                validator.base_rms if best.kept_base else best.rms
+            ),
+            "validation_score": best.score,
         },
     }
 
 
-def curve_point(timesteps: int, rms: float, per_path: list) -> dict:
-    return {
+def curve_point(timesteps: int, rms: float, per_path: list, validator=None) -> dict:
+    point = {
         "timesteps": int(timesteps),
         "rms_contour_error_um": _json_number(rms),
         "per_path_um": [_json_number(x) for x in per_path],
     }
+    if validator is not None:
+        score, eligible = validator.judge(per_path)
+        point["ratio_to_base"] = [_json_number(x) for x in validator.ratios(per_path)]
+        point["score"] = _json_number(score)
+        point["eligible"] = eligible
+    return point

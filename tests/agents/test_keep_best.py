@@ -1,16 +1,19 @@
-"""Keep-best-by-validation (agents.rl.validation): the model kept in a run's folder is the one
-with the lowest validation RMS contour error, the validation curve is recorded, and the final
-model is kept beside it."""
+"""Keep-best-by-validation (agents.rl.validation): the base controller is the first candidate;
+the model kept in a run's folder is the checkpoint no worse than the base on any validation
+path with the lowest mean ratio to it, or the base itself ("kept": "base") when none is; the
+validation curve is recorded, and the final model is kept beside it."""
 
 from __future__ import annotations
 
 import json
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
 import agents.rl.trainer as trainer
+from agents.registry import make_controller
 from agents.residual import ResidualAgent
 from agents.rl import TrainConfig, train
 from agents.rl.checkpoint import checkpoint_dirs, load_model
@@ -37,24 +40,50 @@ def _weights(model) -> np.ndarray:
     )
 
 
-def test_best_keeper_keeps_the_strictly_lowest_and_resumes(tmp_path):
+def test_best_keeper_starts_with_the_base_and_keeps_the_strictly_lowest_eligible(tmp_path):
     keeper = BestKeeper(tmp_path)
-    assert keeper.folder is None and keeper.rms == math.inf
+    assert keeper.kept_base and keeper.folder is None and keeper.score == 1.0
     kept = []
-    offers = ((100, math.inf), (200, 5.0), (300, 3.0), (400, 4.0), (500, 3.0), (600, math.inf))
-    for t, rms in offers:
+    # (timesteps, mean RMS µm, mean ratio to the base, no path worse than the base)
+    offers = (
+        (100, math.inf, math.inf, False),  # a path not completed
+        (200, 5.0, 1.2, False),  # worse than the base
+        (250, 4.0, 0.7, False),  # better on average, but one path worse: not eligible
+        (300, 3.0, 0.8, True),
+        (400, 4.0, 0.9, True),
+        (500, 3.0, 0.8, True),  # a tie keeps the earlier model
+        (600, 2.0, 0.5, False),
+    )
+    for t, rms, score, eligible in offers:
 
         def writer(folder, t=t):
             (folder / "who").write_text(str(t))
 
-        kept.append(keeper.offer(t, rms, writer))
-    # the first is kept while nothing better exists; a tie keeps the earlier model
-    assert kept == [True, True, True, False, False, False]
-    assert (keeper.timesteps, keeper.rms) == (300, 3.0)
+        kept.append(keeper.offer(t, rms, score, eligible, writer))
+    assert kept == [False, False, False, True, False, False, False]
+    assert (keeper.timesteps, keeper.rms, keeper.score) == (300, 3.0, 0.8)
+    assert not keeper.kept_base
     assert [d.name for d in checkpoint_dirs(tmp_path / "best")] == ["step_000000000300"]
     assert (keeper.folder / "who").read_text() == "300"
     again = BestKeeper(tmp_path)
-    assert (again.timesteps, again.rms, again.folder) == (300, 3.0, keeper.folder)
+    assert (again.timesteps, again.rms, again.score, again.folder) == (
+        300,
+        3.0,
+        0.8,
+        keeper.folder,
+    )
+
+
+def test_validator_ratios_and_judgement():
+    class V(Validator):
+        def __init__(self):
+            self.base_per_path = [10.0, 20.0, math.inf]
+
+    v = V()
+    assert v.ratios([5.0, 20.0, math.inf]) == [0.5, 1.0, 1.0]
+    assert v.ratios([5.0, math.inf, 3.0]) == [0.5, math.inf, 0.0]
+    assert v.judge([5.0, 20.0, math.inf]) == (pytest.approx(2.5 / 3), True)
+    assert v.judge([5.0, 21.0, math.inf])[1] is False
 
 
 @pytest.fixture(scope="module")
@@ -109,7 +138,14 @@ def test_the_validation_curve_is_recorded(scripted_run):
     curve = rec["curve"]
     assert [p["timesteps"] for p in curve] == [100, 200, 300, 400]
     assert [p["rms_contour_error_um"] for p in curve] == [5.0, 2.0, 3.0, 4.0]
-    assert rec["best"] == {"timesteps": 200, "validation_rms_contour_error_um": 2.0}
+    best = rec["best"]
+    assert (best["kept"], best["timesteps"], best["validation_rms_contour_error_um"]) == (
+        "best-validation",
+        200,
+        2.0,
+    )
+    assert best["validation_score"] == pytest.approx(2.0 / rec["base_rms_contour_error_um"])
+    assert [p["eligible"] for p in curve] == [True] * 4  # every scripted score beats the base
     assert len(rec["paths"]) == 1 and rec["paths"][0]["family"] == "arcs"
     assert rec["paths"][0]["seed"] >= 2**31
     assert rec["base_rms_contour_error_um"] > 0
@@ -124,10 +160,22 @@ def test_real_validation_keeps_the_argmin_and_rescoring_it_agrees(tmp_path):
     res = train(cfg, out, progress=False, log=lambda s: None)
     rec = json.loads((out / "validation_curve.json").read_text())
     values = [p["rms_contour_error_um"] for p in rec["curve"]]
-    k = int(np.argmin(values))
+    # the rule, recomputed from the recorded per-path figures: the lowest mean ratio among the
+    # points no worse than the base on any path, if below the base's 1
+    base = rec["base_per_path_um"]
+    scores = []
+    for p in rec["curve"]:
+        r = [a / b for a, b in zip(p["per_path_um"], base, strict=True)]
+        assert p["ratio_to_base"] == pytest.approx(r, rel=1e-12)
+        scores.append(np.mean(r) if max(r) <= 1.0 else np.inf)
+    validator = Validator(cfg)
+    if min(scores) >= 1.0:
+        assert res["kept"] == "base" and rec["best"]["kept"] == "base"
+        assert rec["base_per_path_um"] == pytest.approx(validator.base_per_path, rel=1e-12)
+        return
+    k = int(np.argmin(scores))
     assert rec["best"]["timesteps"] == rec["curve"][k]["timesteps"] == res["kept_timesteps"]
     # the kept model, loaded from disk, scores on the validation paths what was recorded
-    validator = Validator(cfg)
     rms, per_path = validator(
         json.loads((out / "agent.json").read_text()),
         ResidualAgent(out).model,
@@ -145,3 +193,44 @@ def test_without_validation_the_final_model_is_kept(tmp_path):
     assert res["kept"] == "final" and res["validation_rms_contour_error_um"] is None
     assert (out / "model.zip").read_bytes() == (out / "final" / "model.zip").read_bytes()
     assert not (out / "validation_curve.json").exists() and not (out / "best").exists()
+
+
+def test_when_no_checkpoint_beats_the_base_the_base_is_kept(tmp_path):
+    """Every scripted validation is worse than the base: the folder holds a loadable agent
+    marked "kept": "base" that applies the base's command, bit for bit."""
+
+    class Worse(Validator):
+        def __call__(self, meta, model, normalizer):
+            per_path = [2.0 * b for b in self.base_per_path]
+            return float(np.mean(per_path)), per_path
+
+    saved = trainer.Validator
+    trainer.Validator = Worse
+    try:
+        cfg = TrainConfig(timesteps=200, eval_freq=100, validation_paths=1, **TINY)
+        out = tmp_path / "worse"
+        res = train(cfg, out, progress=False, log=lambda s: None)
+    finally:
+        trainer.Validator = saved
+    assert res["kept"] == "base" and res["kept_timesteps"] == 0
+    meta = json.loads((out / "agent.json").read_text())
+    assert meta["kept"] == "base" and meta["validation_score"] == 1.0
+    rec = json.loads((out / "validation_curve.json").read_text())
+    assert rec["best"]["kept"] == "base" and rec["best"]["timesteps"] is None
+    assert [p["eligible"] for p in rec["curve"]] == [False, False]
+    agent = ResidualAgent(out)
+    assert agent.is_base
+    from contour_env import ENV_ID
+    from contour_env.evaluation import run_episode
+
+    kw = dict(plant="friction-table", path=str(_square()), feedrate_m_s=0.02)
+    a = run_episode(gym.make(ENV_ID, **kw), agent, seed=3)
+    b = run_episode(gym.make(ENV_ID, **kw), make_controller(cfg.base), seed=3, compiled=False)
+    np.testing.assert_array_equal(a.contour_error, b.contour_error)
+    np.testing.assert_array_equal(a.force, b.force)
+
+
+def _square():
+    from importlib.resources import files
+
+    return files("contour_env") / "data" / "square_corners.nc"

@@ -107,6 +107,10 @@ def _wrapper_of(agent):
         scale=agent.meta["scale"],
         action_repeat=agent.meta["action_repeat"],
         observation=agent.meta.get("observation", "full"),
+        residual_axes=agent.meta["residual_axes"],
+        residual_frame=agent.meta["residual_frame"],
+        gate=agent.meta["gate"],
+        observe_axes=agent.meta["observe_axes"],
     )
 
 
@@ -123,7 +127,8 @@ class _ModelPolicy:
 
 def test_agent_through_evaluate_equals_the_wrapper_it_was_trained_in(sac_run):
     out, _, _ = sac_run
-    agent = ResidualAgent(out)
+    agent = ResidualAgent(out / "final")  # a trained network (the kept model may be the base)
+    assert agent.residual_frame == "path" and agent.observe_axes  # the defaults
     m_agent = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), agent)
     w = _wrapper_of(agent)
 
@@ -292,8 +297,9 @@ def test_errors_observation_agent_is_scored_as_it_was_trained(tmp_path, gcode):
     cfg = TrainConfig(gcode=(gcode,), algo="sac", observation="errors", **TINY)
     out = tmp_path / "errors"
     train(cfg, out, progress=False, log=lambda s: None)
-    agent = ResidualAgent(out)
-    assert agent.meta["observation"] == "errors" and agent.meta["obs_dim"] == 4
+    agent = ResidualAgent(out / "final")  # a trained network (the kept model may be the base)
+    # the 2 n task-frame errors and, by default, the 2 n axis reference fields
+    assert agent.meta["observation"] == "errors" and agent.meta["obs_dim"] == 8
     m_agent = evaluate(gym.make(ENV_ID, plant="friction-table", path=SHORT), agent)
     w = _wrapper_of(agent)
     assert w.observation == "errors"
