@@ -611,6 +611,13 @@ class ResidualAgent(Controller):
         self.model = model
         self.norm = normalizer
         self.deterministic = bool(deterministic)
+        # the deterministic action as NumPy products (agents.rl.actor): every path that
+        # scores the agent uses it, so they agree to the bit
+        self._actor = None
+        if self.deterministic:
+            from .rl.actor import numpy_actor
+
+            self._actor = numpy_actor(model)
         self.scale = float(meta["scale"])
         self.observe_base_command = bool(meta["observe_base_command"])
         self.observation = meta.get("observation", "full")
@@ -683,7 +690,9 @@ class ResidualAgent(Controller):
         """The agent's action in [-1, 1] (B, n [+ 1]) for raw env observations (B, obs_dim)
         and the servo signals of the same sample."""
         x = self.norm(self._view(obs, signals, base_action))
-        a, _ = self.model.predict(x, deterministic=self.deterministic)
+        if self._actor is not None:
+            return self._actor(x)
+        a, _ = self.model.predict(x, deterministic=False)
         return np.clip(np.asarray(a, dtype=np.float64).reshape(x.shape[0], -1), -1.0, 1.0)
 
     def applied_action(self, signals: dict) -> np.ndarray:
@@ -713,6 +722,21 @@ class ResidualAgent(Controller):
 
     def action(self, signals: dict) -> np.ndarray:
         return self.applied_action(signals)
+
+    def compiled_form(self):
+        """The compiled episode loop (:mod:`agents.compiled.residual_runner`) when the base has
+        a compiled form and the agent does not observe the base command (None otherwise:
+        the Python loop). An agent kept as its base is its base's compiled form."""
+        if self.base is None or self.observe_base_command:
+            return None
+        from .compiled import compiled_form
+
+        base_form = compiled_form(self.base)
+        if base_form is None or self.is_base:
+            return base_form
+        from .compiled.residual_runner import ResidualForm
+
+        return ResidualForm(self, base_form)
 
 
 def residual_controller(model_dir, **kwargs) -> ResidualAgent:

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 # the parts, each a function compiling a group of kernels by running them briefly
-STAGES = (("plant", "five-axis"), ("env", "controllers", "batch"))
+STAGES = (("plant", "five-axis"), ("env", "controllers", "batch", "residual"))
 
 
 def _plant() -> None:
@@ -89,12 +89,20 @@ def _batch() -> None:
     robustness_compiled_steps("pd", 2, case="hsm2-circle-III")
 
 
+def _residual() -> None:
+    # a residual agent's compiled servo loop between its decisions (evaluation, validation)
+    from agents.compiled.residual_runner import warm_up
+
+    warm_up()
+
+
 PARTS = {
     "plant": _plant,
     "five-axis": _five_axis,
     "env": _env,
     "controllers": _controllers,
     "batch": _batch,
+    "residual": _residual,
 }
 
 

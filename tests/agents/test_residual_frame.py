@@ -165,7 +165,9 @@ def test_path_frame_vector_wrapper_matches_the_single_wrapper():
             assert np.linalg.norm(i1["residual_action"]) <= 0.05 * i1["gate"] + 1e-12
 
 
-def _random_agent(env_kw, base, residual_frame, *, gain=8.0, seed=0, observe_axes=False):
+def _random_agent(
+    env_kw, base, residual_frame, *, gain=8.0, seed=0, observe_axes=False, gate=False
+):
     """An untrained agent with seeded random weights, its output layer amplified so that the
     residual is of the order of its authority (what any trained network may do)."""
     from stable_baselines3 import SAC
@@ -175,6 +177,7 @@ def _random_agent(env_kw, base, residual_frame, *, gain=8.0, seed=0, observe_axe
         base,
         residual_frame=residual_frame,
         observe_axes=observe_axes,
+        gate=gate,
     )
     torch.manual_seed(seed)
     model = SAC("MlpPolicy", w, seed=seed, device="cpu", policy_kwargs={"net_arch": [32, 32]})
@@ -193,7 +196,7 @@ def _random_agent(env_kw, base, residual_frame, *, gain=8.0, seed=0, observe_axe
         "action_repeat": w.action_repeat,
         "residual_axes": "path",
         "residual_frame": residual_frame,
-        "gate": False,
+        "gate": gate,
         "observe_axes": observe_axes,
     }
     norm = ObsNormalizer(np.zeros(n_obs), np.ones(n_obs), 10.0, 0.0)
@@ -208,8 +211,7 @@ def test_agent_equals_the_wrapper_in_the_path_frame():
 
     class Model:
         def predict(self, obs, state=None, episode_start=None, deterministic=True):
-            a, _ = agent.model.predict(agent.norm(obs[None]), deterministic=True)
-            return a[0], state
+            return agent._actor(agent.norm(obs[None]))[0], state
 
     r_wrap = run_episode(w, Model(), seed=2)
     np.testing.assert_array_equal(r_agent.force, r_wrap.force)
@@ -247,3 +249,27 @@ def test_rotation_a_path_frame_agent_is_the_same_on_a_rotated_part_without_axis_
     assert _spread(path) < 0.05, path
     assert _spread(axes) > 3 * _spread(path), (axes, path)
     print("rotation RMS µm: base", base, "path", path, "axes", axes)
+
+
+@pytest.mark.parametrize(
+    "plant, path, frame, gate",
+    [
+        ("friction-table", "star_exact_stop.nc", "path", True),
+        ("friction-table", SHORT, "axes", False),
+        ("linear-motor", "gear_profile.ngc", "path", False),
+    ],
+)
+def test_compiled_agent_episode_equals_the_python_loop_to_the_bit(plant, path, frame, gate):
+    from agents.rl.heldout import HELDOUT_DIR
+
+    if path.endswith((".nc", ".ngc")):
+        path = str(HELDOUT_DIR / path)
+    kw = dict(plant=plant, path=path)
+    agent = _random_agent(kw, "ccc", frame, observe_axes=True, gain=3.0, gate=gate)
+    assert agent.bind(gym.make(ENV_ID, **kw)).compiled_form() is not None
+    rc = run_episode(gym.make(ENV_ID, **kw), agent, seed=1)
+    rp = run_episode(gym.make(ENV_ID, **kw), agent, seed=1, compiled=False)
+    assert len(rc.contour_error) == len(rp.contour_error) > 100
+    np.testing.assert_array_equal(rc.contour_error, rp.contour_error)
+    np.testing.assert_array_equal(rc.force, rp.force)
+    np.testing.assert_array_equal(rc.position, rp.position)

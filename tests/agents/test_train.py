@@ -121,8 +121,8 @@ class _ModelPolicy:
         self.agent = agent
 
     def predict(self, obs, state=None, episode_start=None, deterministic=True):
-        a, _ = self.agent.model.predict(self.agent.norm(obs[None]), deterministic=True)
-        return a[0], state
+        # the agent's deterministic actor (agents.rl.actor), as every scoring path uses it
+        return self.agent._actor(self.agent.norm(obs[None]))[0], state
 
 
 def test_agent_through_evaluate_equals_the_wrapper_it_was_trained_in(sac_run):

@@ -12,6 +12,7 @@ import pytest
 
 import contour_env  # noqa: F401
 from agents.residual import ResidualAgent, ResidualWrapper
+from agents.rl.actor import numpy_actor
 from agents.zoo import (
     ALGOS,
     RESIDUAL_ENV_ID,
@@ -105,13 +106,13 @@ def test_zoo_trains_a_residual_agent_scored_as_it_was_trained(residual_run, tmp_
     # the same episode through the zoo's own env stack: the residual wrapper of the run's
     # config.yml on the env, the model on the saved statistics
     model, norm = run.load_model(), run.normalizer()
+    actor = numpy_actor(model)  # the agent's deterministic actor (agents.rl.actor)
     env = residual_wrapper(gym.make(ENV_ID, case="sharp-corner"), **run.wrapper_kwargs)
     obs, _ = env.reset(seed=0)
     eps = []
     done = False
     while not done:
-        a, _ = model.predict(norm(obs[None]), deterministic=True)
-        obs, _, term, trunc, info = env.step(a[0])
+        obs, _, term, trunc, info = env.step(actor(norm(obs[None]))[0])
         eps.append(info["contour_error"])
         done = term or trunc
     np.testing.assert_allclose(rec.contour_error, eps, rtol=0, atol=1e-12)

@@ -1,0 +1,188 @@
+"""The compiled servo loop of a residual agent between two of its decisions: per servo period
+the base controller's law (:func:`agents.compiled.laws.law`), its env action, the residual of
+the held agent action (:func:`agents.residual_law.residual_command`, the same arithmetic term
+by term) and the kernel's step — so that an agent deciding every k periods costs one Python
+call (its network) per k periods instead of a Python controller, an env step and an info
+dict per period.
+
+:class:`agents.residual.ResidualAgent` uses it through ``compiled_form()``:
+``contour_env.evaluation.run_episode`` takes this path for an agent whose base has a compiled
+form, with the same record as the Python path, to the bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from contour_env.env.borrow import borrowed
+from contour_env.env.kernel import AX_APPLIED, I_NSTEPS, _step_one
+
+from .laws import law
+from .runner import WORK_SIZE, _action
+
+
+@njit(cache=True)
+def run_residual_chunk(
+    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
+    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
+    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
+    a, scale, mask, weights, path_frame, gate, n0, n_periods,
+):  # fmt: skip
+    """Env 0 for up to ``n_periods`` servo periods from recorded step ``n0`` with the agent's
+    action ``a`` held. Returns (n, bad, ended): steps recorded so far, 1 when the base's
+    action was not finite (nothing stepped then), 1 when the episode ended."""
+    B = borrowed
+    return _run_residual_chunk(
+        kind, B(fp), B(st), B(flim), B(cfg), B(icfg), B(obs_tab), B(z), B(ax), B(k), B(eps),
+        B(est), B(status), B(seed), B(ref_pav), B(frame), B(scal), B(seg_type), B(seg_data),
+        B(seg_bounds), B(mat_T), B(mat_h), B(cont), B(nl), B(pidx), B(action), B(obs),
+        B(reward), B(terminated), B(truncated), B(scratch),
+        (B(info[0]), B(info[1]), B(info[2]), B(info[3])),
+        B(rec_time), B(rec_eps), B(rec_pos), B(rec_ref), B(rec_force),
+        B(a), scale, B(mask), B(weights), path_frame, gate, n0, n_periods,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _run_residual_chunk(
+    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
+    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
+    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
+    a, scale, mask, weights, path_frame, gate, n0, n_periods,
+):  # fmt: skip
+    A = z.shape[1]
+    n_steps = icfg[I_NSTEPS]
+    n_max = n_steps - 1
+    T = cfg[0]
+    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    u = np.zeros(A)
+    work = np.zeros(WORK_SIZE)
+    push = np.zeros(A)
+    r = np.zeros(A)
+    b = 0
+    # the agent's push (norm-limited in the path frame) and gate: fixed over the chunk
+    if path_frame:
+        sq = 0.0
+        for j in range(A):
+            sq += a[j] * a[j]
+        norm = math.sqrt(sq)
+        div = norm if norm > 1.0 else 1.0
+        for j in range(A):
+            push[j] = a[j] / div
+    else:
+        for j in range(A):
+            push[j] = a[j]
+    g = 1.0
+    if gate:
+        g = a[A]
+        if g < 0.0:
+            g = 0.0
+        elif g > 1.0:
+            g = 1.0
+    n = n0
+    for _ in range(n_periods):
+        if n >= n_max:
+            return n, 0, 1
+        kk = min(k[b], n_steps - 1)
+        law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work)
+        if not _action(A, b, u, flim, action):
+            return n, 1, 0
+        # residual_command, term by term
+        if path_frame:
+            for i in range(A):
+                acc = 0.0
+                for j in range(A):
+                    acc = acc + frame[kk, i, j] * push[j]
+                r[i] = scale * (acc * weights[i])
+        else:
+            for i in range(A):
+                r[i] = scale * push[i]
+        for i in range(A):
+            ri = r[i] * mask[i]
+            if gate:
+                ri = ri * g
+            x = action[b, i] + ri
+            if x < -1.0:
+                x = -1.0
+            elif x > 1.0:
+                x = 1.0
+            action[b, i] = x
+        if A == 2:
+            _step_one(
+                2, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
+                frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
+                obs, reward, terminated, truncated, scratch, info,
+            )  # fmt: skip
+        else:
+            _step_one(
+                A, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
+                frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
+                obs, reward, terminated, truncated, scratch, info,
+            )  # fmt: skip
+        kb = k[b]
+        rec_time[n] = kb * T
+        rec_eps[n] = eps[b]
+        kr = min(kb, n_steps - 1)
+        for i in range(A):
+            rec_pos[n, i] = z[b, i, 0]
+            rec_ref[n, i] = ref_pav[kr, 0, i]
+            rec_force[n, i] = ax[AX_APPLIED, b, i]
+        n += 1
+        if terminated[b] or truncated[b]:
+            return n, 0, 1
+    return n, 0, 0
+
+
+class ResidualForm:
+    """The compiled form of a bound :class:`agents.residual.ResidualAgent` whose base has one:
+    ``run_single`` runs env 0 to the end of its episode, the network queried every
+    ``action_repeat`` periods from Python, the periods in between compiled."""
+
+    def __init__(self, agent, base_form):
+        self.agent = agent
+        self.base_form = base_form
+
+    def run_single(self, core, rec_time, rec_eps, rec_pos, rec_ref, rec_force) -> tuple:
+        agent = self.agent
+        args = self.base_form._core_args(core)
+        mask = np.ascontiguousarray(agent._axis_mask(), dtype=np.float64)
+        weights = np.ascontiguousarray(agent._weights, dtype=np.float64)
+        path_frame = agent.residual_frame == "path"
+        n, bad, ended = 0, 0, 0
+        while not (bad or ended):
+            sig = core.signals_batch()
+            a = np.ascontiguousarray(agent.agent_action(core.obs[:1], sig, None)[0])
+            n, bad, ended = run_residual_chunk(
+                *args, rec_time, rec_eps, rec_pos, rec_ref, rec_force, a, agent.scale, mask,
+                weights, path_frame, agent.gate, n, agent.action_repeat,
+            )  # fmt: skip
+        self.base_form.store()
+        return int(n), bool(bad)
+
+
+def warm_up() -> None:
+    """Compile :func:`run_residual_chunk` for 2- and 3-axis plants (``contour-env warm``)."""
+    import gymnasium as gym
+
+    from contour_env import ENV_ID
+    from contour_env.env.rollout import empty_record
+
+    from ..registry import make_controller
+    from .forms import compiled_form
+
+    for case in ("sharp-corner", "lm-circle3d"):
+        env = gym.make(ENV_ID, case=case)
+        core = env.unwrapped.core
+        ctrl = make_controller("ccc").bind(env)
+        env.reset(seed=0)
+        form = compiled_form(ctrl)
+        rec = empty_record(core)
+        A = core.dim
+        run_residual_chunk(
+            *form._core_args(core), rec["time"], rec["contour_error"], rec["position"],
+            rec["reference"], rec["force"], np.zeros(A + 1), 0.05, np.ones(A), np.ones(A), True,
+            True, 0, 3,
+        )  # fmt: skip

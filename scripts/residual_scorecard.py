@@ -1,0 +1,95 @@
+"""The shipped residual agents against their bases on the held-out suite and the named cases.
+
+    python scripts/residual_scorecard.py [--models DIR[,DIR...]] [--out FILE] [--workers N]
+        [--markdown]
+
+For every model DIR (default: the shipped agents, ``agents/models/*``) every program of
+``tests/data/heldout/`` the plant takes and every named case of its plant is run with the agent
+and with its base controller (:mod:`agents.rl.scorecard`, seed 0). Writes ``--out`` (default
+``agents/models/scorecard.json``, atomically): one card per agent with its rows, the digest of
+its ``agent.json`` + ``model.zip`` (so a stale card is detected by
+``tests/agents/test_scorecard.py``) and the summary the acceptance reads: the worst ratio
+agent / base over every target, the mean ratio over the held-out programs. ``--markdown``
+prints the README's table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from agents.rl.models import MODELS_DIR, list_models
+from agents.rl.scorecard import scorecard
+from contour_env.io import atomic_write_json
+
+SCORECARD = MODELS_DIR / "scorecard.json"
+
+
+def _r(x) -> str:
+    return "—" if x is None else f"{x:.3f}"
+
+
+def markdown(cards: list[dict]) -> str:
+    """The README table: per agent and target, base and agent RMS (µm) and the ratio."""
+    lines = [
+        "| agent (base) | target | base RMS ε (µm) | agent RMS ε (µm) | agent / base |",
+        "|---|---|---|---|---|",
+    ]
+    for c in cards:
+        who = f"`{c['model']}` ({c['base']}{', kept: base' if c['kept'] == 'base' else ''})"
+        for r in c["rows"]:
+            tgt = f"`{r['target']}`" + (" (case)" if r["kind"] == "case" else "")
+            lines.append(
+                f"| {who} | {tgt} | {r['base_rms_contour_error_um']:.3f} | "
+                f"{r['agent_rms_contour_error_um']:.3f} | {_r(r['rms_ratio'])} |"
+            )
+        lines.append(
+            f"| {who} | **held-out mean / worst; worst of all** | | | "
+            f"**{_r(c['heldout_mean_ratio'])} / {_r(c['heldout_worst_ratio'])}; "
+            f"{_r(c['worst_ratio'])}** |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--models", help="comma-separated model DIRs (default: the shipped agents)")
+    ap.add_argument("--out", default=str(SCORECARD), help="JSON file to write")
+    ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    ap.add_argument("--markdown", action="store_true", help="print the README table")
+    args = ap.parse_args(argv)
+    if args.models:
+        dirs = [Path(d) for d in args.models.split(",") if d]
+    else:
+        dirs = [Path(r["path"]) for r in list_models() if "error" not in r]
+    cards = []
+    for d in dirs:
+        t0 = time.perf_counter()
+
+        def show(row):
+            print(
+                f"  {row['target']:26s} base {row['base_rms_contour_error_um']:8.3f} µm  agent "
+                f"{row['agent_rms_contour_error_um']:8.3f} µm  ratio {_r(row['rms_ratio'])}",
+                flush=True,
+            )
+
+        print(f"{d}:", flush=True)
+        card = scorecard(d, workers=args.workers, progress=show)
+        card["score_wall_s"] = time.perf_counter() - t0
+        print(
+            f"  held-out mean ratio {_r(card['heldout_mean_ratio'])}, held-out worst "
+            f"{_r(card['heldout_worst_ratio'])}, named cases worst {_r(card['cases_worst_ratio'])}"
+            f" ({card['score_wall_s']:.0f} s)",
+            flush=True,
+        )
+        cards.append(card)
+    atomic_write_json(args.out, {"cards": cards})
+    print(f"wrote {args.out}")
+    if args.markdown:
+        print(markdown(cards))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
