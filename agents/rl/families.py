@@ -12,6 +12,10 @@ default_rng(seed)`` alone, so a seed names a path. Families (:data:`FAMILIES`):
 - ``arcs``: one arc of random radius, start angle, sweep and direction;
 - ``circles``: one full circle of random radius, start angle and direction;
 - ``splines``: an open C² spline through 5–7 random points;
+- ``programs``: a planar contour as a shop program carries it — lines with or without
+  tangent G02/G03 fillets at the corners, free or right-angle (axis-aligned) corners, exact
+  stop (G61) or blending (G64 P), a rapid (G00) approach, a Z plunge and retract (pauses on a
+  2-axis plant), a G04 dwell (:func:`_program`);
 - ``helices`` (3-axis plants only): a helix of random radius, pitch, turns and axis.
 
 On a 3-axis plant half of the parts lie in a plane of uniformly random normal, the other half
@@ -35,7 +39,7 @@ from contour_env.plants import Plant
 from contour_env.plants.catalog import PLANT_ALIASES
 from contour_env.plants.randomize import randomized
 
-FAMILIES = ("polylines", "arcs", "circles", "splines", "helices")
+FAMILIES = ("polylines", "arcs", "circles", "splines", "programs", "helices")
 THREE_AXIS_FAMILIES = ("helices",)
 # training path seeds are drawn in [0, VALIDATION_SEED_BASE); validation path k has seed
 # VALIDATION_SEED_BASE + k
@@ -327,6 +331,134 @@ def _polyline_gcode(pts: np.ndarray, feed_m_s: float, tol_m: float, with_z: bool
     return "\n".join(lines) + "\n"
 
 
+# programs: share of parts with each feature; fillet radius / part size; pauses (s)
+PROGRAM_FEATURE_P = 0.5
+PROGRAM_AXIS_ALIGNED_P = 1 / 3
+PROGRAM_FILLET = (0.03, 0.2)
+PROGRAM_PAUSE_S = (0.2, 1.5)
+PROGRAM_LEGS = (3, 7)
+
+
+def _fillet(p_prev, p, p_next, r):
+    """(arc start, arc end, centre, ccw) of a tangent fillet of radius r at corner p (2-D)."""
+    u_in = (p - p_prev) / np.linalg.norm(p - p_prev)
+    u_out = (p_next - p) / np.linalg.norm(p_next - p)
+    turn = math.atan2(u_in[0] * u_out[1] - u_in[1] * u_out[0], float(u_in @ u_out))
+    d = r * math.tan(abs(turn) / 2)
+    a, b = p - d * u_in, p + d * u_out
+    left = np.array([-u_in[1], u_in[0]])
+    ccw = turn > 0
+    centre = a + (r if ccw else -r) * left
+    return a, b, centre, ccw
+
+
+def _program(d: _Draw):
+    rng = d.rng
+    P = PROGRAM_FEATURE_P
+    n_legs = int(rng.integers(PROGRAM_LEGS[0], PROGRAM_LEGS[1] + 1))
+    aligned = bool(rng.random() < PROGRAM_AXIS_ALIGNED_P)
+    if aligned:  # right-angle corners along the machine axes (rectangles, steps)
+        turns = np.radians(90.0) * rng.choice([-1.0, 1.0], size=n_legs - 1)
+        phi = math.radians(90.0) * int(rng.integers(4))
+    else:
+        turns = np.radians(rng.uniform(*CORNER_ANGLE_DEG, size=n_legs - 1))
+        turns *= rng.choice([-1.0, 1.0], size=n_legs - 1)
+        phi = float(rng.uniform(0.0, 2 * math.pi))
+    headings = phi + np.concatenate([[0.0], np.cumsum(turns)])
+    lengths = rng.uniform(0.2, 0.6, size=n_legs)
+    legs = np.column_stack([np.cos(headings), np.sin(headings)]) * lengths[:, None]
+    pts = np.vstack([np.zeros(2), np.cumsum(legs, axis=0)])
+    if np.min(np.linalg.norm(np.diff(pts, axis=0), axis=1)) <= 0:
+        return None
+    size = d.size()
+    offset = np.zeros(2)
+    if rng.random() < P:  # a rapid approach from where the machine stands
+        ang = float(rng.uniform(0.0, 2 * math.pi))
+        offset = float(rng.uniform(0.2, 0.5)) * np.array([math.cos(ang), math.sin(ang)])
+    # the part with its approach from the origin spans ``size``
+    unit = np.vstack([np.zeros(2), pts / float(np.max(np.ptp(pts, axis=0))) + offset])
+    scale = size / float(np.max(np.ptp(unit, axis=0)))
+    pts = (pts / float(np.max(np.ptp(pts, axis=0))) + offset) * scale
+    offset = offset * scale
+    fillets = rng.random() < P
+    frac = rng.uniform(*PROGRAM_FILLET, size=n_legs - 1)
+    feed0 = float(rng.uniform(*d.r.feed_m_s))
+    plunge_s = float(rng.uniform(*PROGRAM_PAUSE_S)) if rng.random() < P else 0.0
+    # the approach, and the plunge and retract (3 mm of Z; a pause on a 2-axis plant)
+    z_travel = 3e-3 if plunge_s else 0.0
+    travel = float(np.linalg.norm(offset))
+    length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    if length + travel + z_travel > feed0 * d.r.max_path_time_s:
+        # longer than the time cap at its feed: shrink the part (angles kept)
+        shrink = (feed0 * d.r.max_path_time_s - z_travel) / (length + travel) * 0.99
+        pts, offset, size = pts * shrink, offset * shrink, size * shrink
+        length, travel = length * shrink, travel * shrink
+    travel += z_travel
+    # tangent fillets: radius ~ the part size, at most what the shorter adjacent leg allows;
+    # the feed then keeps the centripetal limit on the tightest one
+    radii = np.zeros(n_legs - 1)
+    feed = feed0
+    if fillets:
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        for i in range(n_legs - 1):
+            room = 0.45 * min(seg[i], seg[i + 1]) / math.tan(abs(turns[i]) / 2)
+            radii[i] = min(float(frac[i]) * size, room)
+        feed = min(feed, math.sqrt(d.r.max_centripetal_m_s2 * float(np.min(radii))))
+        if feed < d.r.feed_m_s[0] or (length + travel) / feed > d.r.max_path_time_s:
+            return None
+    exact_stop = bool(rng.random() < P)
+    tol = float(rng.uniform(*d.r.blend_tolerance_m))
+    dwell_s = float(rng.uniform(*PROGRAM_PAUSE_S)) if rng.random() < P else 0.0
+    dwell_after = int(rng.integers(n_legs))
+    mm = 1e3
+    f_mm_min = feed * 6e4
+
+    def xy(p):
+        return f"X{p[0] * mm:.4f} Y{p[1] * mm:.4f}"
+
+    lines = ["(generated training part: program)", "G21 G90 G17 G94"]
+    lines.append("G61" if exact_stop else f"G64 P{tol * mm:.4f}")
+    if np.any(offset != 0):
+        lines.append(f"G00 {xy(pts[0])}")
+    first_f = f" F{f_mm_min:.3f}"
+    if plunge_s:
+        depth_mm = 1.0
+        lines.append(f"G01 Z-{depth_mm:.3f} F{depth_mm / plunge_s * 60:.3f}")
+    for i in range(n_legs):
+        end = pts[i + 1]
+        if i < n_legs - 1 and radii[i] > 0:
+            a, b, c, ccw = _fillet(pts[i], pts[i + 1], pts[i + 2], radii[i])
+            lines.append(f"G01 {xy(a)}{first_f}")
+            first_f = ""
+            ij = (c - a) * mm
+            lines.append(f"G0{3 if ccw else 2} {xy(b)} I{ij[0]:.4f} J{ij[1]:.4f}")
+            pts[i + 1] = b  # the next leg starts where the fillet ends
+        else:
+            lines.append(f"G01 {xy(end)}{first_f}")
+            first_f = ""
+        if dwell_s and i == dwell_after:
+            lines.append(f"G04 P{dwell_s:.3f}")
+    if plunge_s:
+        lines.append("G00 Z1.000")
+    lines.append("M30")
+    params = {
+        "size_m": size,
+        "n_legs": n_legs,
+        "axis_aligned": aligned,
+        "corner_deg": [round(float(x), 6) for x in np.degrees(turns)],
+        "fillet_radius_m": [float(x) for x in radii],
+        "exact_stop": exact_stop,
+        "blend_tolerance_m": None if exact_stop else tol,
+        "rapid_approach_m": [float(x) for x in offset],
+        "plunge_pause_s": plunge_s,
+        "dwell_s": dwell_s,
+        "normal": [0.0, 0.0, 1.0],
+        "length_m": length + travel,
+    }
+    pts3 = np.column_stack([np.vstack([np.zeros(2), pts]), np.zeros(len(pts) + 1)])
+    return "\n".join(lines) + "\n", feed, params, pts3
+
+
 def _arc_or_circle(d: _Draw, full: bool):
     rng = d.rng
     u, v, w, _ = _plane_basis(rng, d.n_axes)
@@ -420,6 +552,7 @@ _BUILDERS = {
     "arcs": lambda d: _arc_or_circle(d, full=False),
     "circles": lambda d: _arc_or_circle(d, full=True),
     "splines": _spline,
+    "programs": _program,
     "helices": _helix,
 }
 

@@ -90,7 +90,9 @@ def test_sizes_feeds_and_travel_within_the_plant_ranges(plant, family):
         pts = geom.sample_points(800)
         assert np.all(np.abs(pts) <= r.travel_m)
         assert np.max(np.ptp(pts, axis=0)) <= r.size_m[1] * (1 + 1e-6)
-        if family != "polylines":  # curves: the feed respects the centripetal limit
+        if family not in ("polylines", "programs") or (
+            family == "programs" and max(part.params["fillet_radius_m"]) > 0
+        ):  # curves (and fillets): the feed respects the centripetal limit
             _, kappa, _ = geom.frames(np.linspace(0, geom.total_length, 2001))
             assert f**2 * np.max(np.abs(kappa)) <= r.max_centripetal_m_s2 * 1.02
         if geom.dim == 3:
@@ -171,9 +173,8 @@ def test_validation_set_is_fixed_and_uses_seeds_training_never_draws():
     b = validation_set("friction-table", (), 6, plant_variation=0.1)
     assert [p.describe() for p in a] == [p.describe() for p in b]
     assert [p.seed for p in a] == [VALIDATION_SEED_BASE + k for k in range(6)]
-    assert [p.family for p in a] == ["polylines", "arcs", "circles", "splines"] + [
+    assert [p.family for p in a] == ["polylines", "arcs", "circles", "splines", "programs"] + [
         "polylines",
-        "arcs",
     ]
     cfg = TrainConfig(plant="friction-table", path_variety=("families",), validation_paths=2)
     sampler = TaskSampler(cfg, 0)

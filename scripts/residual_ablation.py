@@ -1,0 +1,175 @@
+"""The residual ablation: {axes, path} frame × {no gate, gate}, the same training budget, several
+seeds, scored on the held-out suite and the plant's named cases.
+
+    python scripts/residual_ablation.py [--plant friction-table] [--base ccc]
+        [--budget-s 600] [--seeds 0,1,2] [--parallel 2] [--work out/ablation]
+        [--out docs/ablation_<plant>.json] [--markdown]
+
+Each run is ``contour-env train --plant P --paths families --base B --time-budget S`` with one
+variant's ``--residual-frame`` / ``--gate`` (everything else at the trainer's defaults, the
+axis observation on in every variant), run as its own process, ``--parallel`` at a time (each
+with one torch thread); a run that exists in ``--work`` with its ``agent.json`` is not trained
+again. Each kept agent is then scored by :mod:`agents.rl.scorecard` (agent / base RMS contour
+error on every held-out program and named case of the plant). Writes ``--out`` (atomically):
+per run its card, per variant the mean and spread over the seeds of the held-out mean ratio,
+the held-out worst ratio and the worst ratio over every target. ``--markdown`` prints the
+README's table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+VARIANTS = {
+    "axes": {"residual_frame": "axes", "gate": False},
+    "axes+gate": {"residual_frame": "axes", "gate": True},
+    "path": {"residual_frame": "path", "gate": False},
+    "path+gate": {"residual_frame": "path", "gate": True},
+}
+
+
+def _command(plant, base, budget_s, seed, variant, out) -> list[str]:
+    v = VARIANTS[variant]
+    cmd = [
+        sys.executable, "-m", "contour_env.cli", "train", "--plant", plant, "--paths",
+        "families", "--base", base, "--algo", "sac", "--timesteps", "10000000",
+        "--time-budget", str(budget_s), "--eval-every-s", str(max(30.0, budget_s / 8)),
+        "--seed", str(seed), "--residual-frame", v["residual_frame"], "--observe-axes",
+        "--gate" if v["gate"] else "--no-gate", "--out", str(out), "--no-progress",
+    ]  # fmt: skip
+    return cmd
+
+
+def train_all(jobs, parallel: int) -> None:
+    """Run the training commands ``jobs`` [(out, cmd)], ``parallel`` at a time."""
+    waiting = [(out, cmd) for out, cmd in jobs if not (out / "agent.json").is_file()]
+    running = []
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    while waiting or running:
+        while waiting and len(running) < parallel:
+            out, cmd = waiting.pop(0)
+            if out.exists():  # an interrupted run: start again
+                import shutil
+
+                shutil.rmtree(out)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            log = open(out.parent / f"{out.name}.log", "w")
+            print(f"train {out.name}", flush=True)
+            running.append((out, subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=log, env=env)))
+        time.sleep(2.0)
+        for out, proc in list(running):
+            if proc.poll() is not None:
+                running.remove((out, proc))
+                status = "done" if proc.returncode == 0 else f"FAILED ({proc.returncode})"
+                print(f"  {out.name}: {status}", flush=True)
+
+
+def _stats(values) -> dict:
+    v = np.array([np.inf if x is None else x for x in values], dtype=float)
+    return {
+        "mean": float(np.mean(v)) if np.all(np.isfinite(v)) else None,
+        "min": float(np.min(v)),
+        "max": float(np.max(v)) if np.all(np.isfinite(v)) else None,
+        "values": [None if not np.isfinite(x) else float(x) for x in v],
+    }
+
+
+def summarise(cards_by_variant: dict) -> dict:
+    out = {}
+    for variant, cards in cards_by_variant.items():
+        out[variant] = {
+            key: _stats([c[key] for c in cards])
+            for key in ("heldout_mean_ratio", "heldout_worst_ratio", "worst_ratio")
+        }
+        out[variant]["kept_base"] = sum(c["kept"] == "base" for c in cards)
+        out[variant]["seeds"] = len(cards)
+    return out
+
+
+def markdown(result: dict) -> str:
+    def cell(s):
+        if s["mean"] is None:
+            return "not completed on every part"
+        return f"{s['mean']:.3f} ({s['min']:.3f}–{s['max']:.3f})"
+
+    lines = [
+        f"| variant | held-out mean agent / base | held-out worst | worst of all "
+        f"({result['plant']} cases included) | seeds kept as base |",
+        "|---|---|---|---|---|",
+    ]
+    for variant, s in result["summary"].items():
+        lines.append(
+            f"| `{variant}` | {cell(s['heldout_mean_ratio'])} | {cell(s['heldout_worst_ratio'])} | "
+            f"{cell(s['worst_ratio'])} | {s['kept_base']} of {s['seeds']} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--plant", default="friction-table")
+    ap.add_argument("--base", default="ccc")
+    ap.add_argument("--budget-s", type=float, default=600.0, help="training time per run, s")
+    ap.add_argument("--seeds", default="0,1,2")
+    ap.add_argument("--variants", default=",".join(VARIANTS))
+    ap.add_argument("--parallel", type=int, default=2)
+    ap.add_argument("--work", default="out/ablation")
+    ap.add_argument("--out", default=None, help="JSON (default docs/ablation_<plant>.json)")
+    ap.add_argument("--markdown", action="store_true")
+    args = ap.parse_args(argv)
+    from agents.rl.scorecard import scorecard
+    from contour_env.io import atomic_write_json
+
+    seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
+    variants = [v for v in args.variants.split(",") if v]
+    bad = [v for v in variants if v not in VARIANTS]
+    if bad:
+        raise SystemExit(f"--variants: unknown {bad}; known: {', '.join(VARIANTS)}")
+    work = Path(args.work) / args.plant
+    runs = {
+        (v, s): work / f"{v.replace('+', '-')}-s{s}" for v in variants for s in seeds
+    }  # fmt: skip
+    jobs = [
+        (out, _command(args.plant, args.base, args.budget_s, s, v, out))
+        for (v, s), out in runs.items()
+    ]
+    t0 = time.perf_counter()
+    train_all(jobs, args.parallel)
+    cards_by_variant = {v: [] for v in variants}
+    for (v, s), out in runs.items():
+        card = scorecard(out, workers=args.parallel)
+        meta = json.loads((out / "agent.json").read_text())
+        card.update(seed=s, variant=v, train_s=meta.get("train_wall_s"))
+        cards_by_variant[v].append(card)
+        print(
+            f"{v:10s} seed {s}: held-out mean {card['heldout_mean_ratio']}, worst "
+            f"{card['worst_ratio']} (kept: {card['kept']})",
+            flush=True,
+        )
+    result = {
+        "plant": args.plant,
+        "base": args.base,
+        "budget_s": args.budget_s,
+        "seeds": seeds,
+        "wall_s": time.perf_counter() - t0,
+        "summary": summarise(cards_by_variant),
+        "cards": cards_by_variant,
+    }
+    out_json = args.out or str(ROOT / "docs" / f"ablation_{args.plant}.json")
+    atomic_write_json(out_json, result)
+    print(f"wrote {out_json}")
+    print(markdown(result))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
