@@ -398,3 +398,50 @@ def test_eval_every_s_evaluates_by_training_time_and_the_curve_is_written_as_it_
     assert all(b - a >= 0.4 for a, b in zip(periodic[:-1], periodic[1:], strict=True))
     with pytest.raises(ValueError, match="eval_every_s: a finite number of seconds > 0"):
         TrainConfig(gcode=(gcode,), **{**TINY, "eval_every_s": -1})
+
+
+def test_cli_residual_law_options_reach_the_config_and_the_agent(tmp_path, gcode):
+    out = tmp_path / "opts"
+    rc = main(
+        [
+            "train", "--plant", "friction-table", "--gcode", gcode, "--base", "pd",
+            "--algo", "sac", "--timesteps", "60", "--out", str(out), "--net-arch", "8",
+            "--no-progress", "--validation-paths", "1", "--residual-frame", "axes", "--gate",
+            "--no-observe-axes",
+        ]
+    )  # fmt: skip
+    assert rc == 0
+    cfg = json.loads((out / "config.json").read_text())
+    assert (cfg["residual_frame"], cfg["gate"], cfg["observe_axes"]) == ("axes", True, False)
+    meta = json.loads((out / "final" / "agent.json").read_text())
+    assert (meta["residual_frame"], meta["gate"], meta["observe_axes"]) == ("axes", True, False)
+    agent = ResidualAgent(out / "final")
+    assert agent.model.action_space.shape == (3,)  # two axes and the gate
+    with pytest.raises(SystemExit):  # argparse names the option and the allowed values
+        main(["train", "--plant", "friction-table", "--gcode", gcode, "--out",
+              str(tmp_path / "bad"), "--residual-frame", "tool"])  # fmt: skip
+
+
+def test_an_agent_kept_as_its_base_says_so_in_compare_and_evaluate(
+    sac_run, tmp_path, gcode, capsys
+):
+    src, _, _ = sac_run
+    out = tmp_path / "as-base"
+    shutil.copytree(src, out)
+    meta = json.loads((out / "agent.json").read_text())
+    meta["kept"] = "base"
+    (out / "agent.json").write_text(json.dumps(meta))
+    js = tmp_path / "cmp.json"
+    rc = main(
+        ["compare", "--plant", "friction-table", "--gcode", gcode, "--controllers",
+         "pd,residual", "--model", str(out), "--json", str(js)]
+    )  # fmt: skip
+    assert rc == 0
+    assert "the agent is its base pd" in capsys.readouterr().out
+    rows = {r["controller"]: r for r in json.loads(js.read_text())["results"]}
+    assert rows["residual"]["agent_is_base"] is True
+    assert rows["residual"]["rms_contour_error_um"] == rows["pd"]["rms_contour_error_um"]
+    assert main(["evaluate", "--model", str(out), "--plant", "friction-table", "--gcode",
+                 gcode]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    assert "is its base pd" in printed and "agent/base: 1.000" in printed
