@@ -277,11 +277,13 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             },
         )
 
-    def validate() -> None:
-        """Score the policy on the validation paths; keep it if it is the best so far."""
+    def validate(ts: float) -> None:
+        """Score the policy on the validation paths (``ts``: the training time so far); keep
+        it if it is the best so far."""
         t = int(model.num_timesteps)
         rms, per_path = validator(meta_now(), model, normalizer_of(venv))
         point = curve_point(t, rms, per_path, validator)
+        point["train_s"] = ts
         val_curve.append(point)
         score, eligible = validator.judge(per_path)
         if best.offer(t, rms, score, eligible, lambda d: write_files(d, False)):
@@ -289,6 +291,10 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 f"validation: new best {rms:.4g} µm, {score:.3f}x the base on average, at {t} "
                 "timesteps"
             )
+        # the curve so far, readable while the run goes on (rewritten at the end)
+        atomic_write_json(
+            out / "validation_curve.json", validation_record(validator, cfg.base, val_curve, best)
+        )
 
     # training wall time (s) without the evaluations and validations, carried over a resume:
     # the curves' "train_s", what time-to-target figures read
@@ -343,8 +349,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 self.logger.record("eval/rms_contour_error_um", rms)
                 shown.update(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
             if validator is not None:
-                validate()
-                val_curve[-1]["train_s"] = ts
+                validate(ts)
                 val = val_curve[-1]["rms_contour_error_um"]
                 if val is not None:  # None: a validation path not completed
                     self.logger.record("eval/validation_rms_contour_error_um", val)
@@ -426,8 +431,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     ):
         # the final model, unless a periodic validation saw these timesteps (each point of the
         # curve is the score of the model kept for it)
-        validate()
-        val_curve[-1]["train_s"] = ts
+        validate(ts)
     write_checkpoint(
         ckpt_root, model.num_timesteps, lambda d: write_files(d, True), cfg.keep_checkpoints
     )
