@@ -57,6 +57,10 @@ HELIX_PITCH_PER_RADIUS = (0.05, 0.5)
 # share of parts on a 3-axis plant in a plane of random normal (the rest: the xy-plane)
 TILTED_SHARE = 0.5
 _MAX_TRIES = 200
+# the time the machine stands at the end point before the episode ends (s): held-out programs
+# and real ones end with a retract or a dwell, and an agent that leaves the table off the path
+# when it stops pays for it only while the episode goes on
+SETTLE_TIME_S = (0.1, 1.0)
 
 
 @dataclass(frozen=True)
@@ -151,6 +155,7 @@ class GeneratedPath:
     plant_params: list | None
     reset_seed: int
     params: dict = field(default_factory=dict)
+    settle_time_s: float = 0.1
 
     def env_kwargs(self) -> dict:
         """Keyword arguments of ``gym.make(ENV_ID, ...)`` (the disturbance phase random)."""
@@ -160,6 +165,7 @@ class GeneratedPath:
             "feedrate_m_s": self.feedrate_m_s,
             "max_accel_m_s2": self.max_accel_m_s2,
             "max_jerk_m_s3": self.max_jerk_m_s3,
+            "settle_time_s": self.settle_time_s,
             "disturbance_phase": "random",
         }
         if self.plant_params is not None:
@@ -173,6 +179,7 @@ class GeneratedPath:
             "plant": self.plant,
             "seed": self.seed,
             "feedrate_m_s": self.feedrate_m_s,
+            "settle_time_s": self.settle_time_s,
             "reset_seed": self.reset_seed,
             **self.params,
         }
@@ -583,6 +590,7 @@ def generate_path(family: str, plant: str, seed: int, *, plant_variation: float 
     path, feed, params, _ = got
     variation_seed = int(rng.integers(0, 2**31))
     reset_seed = int(rng.integers(0, 2**31))
+    settle = float(rng.uniform(*SETTLE_TIME_S))
     plant_params = None
     if plant_variation:
         plant_params = randomized(plant_obj.params, plant_variation, 1, seed=variation_seed)
@@ -597,6 +605,7 @@ def generate_path(family: str, plant: str, seed: int, *, plant_variation: float 
         plant_params=plant_params,
         reset_seed=reset_seed,
         params=params,
+        settle_time_s=settle,
     )
 
 
