@@ -6,14 +6,16 @@ The agent and its base are scored with the project's one scoring function
 effort agent / base per axis (the effort budget is +10 %). Test contours of an agent
 (:func:`test_targets`):
 
-- its training cases (``agent.json``), and for ``hsm2`` all three Lee 2012 circles;
+- its training cases (``agent.json``) and every named case of its plant;
+- every program of the held-out suite ``tests/data/heldout/`` the plant takes (the 3-D ones on
+  3-axis plants only; :func:`agents.rl.scorecard.targets_for`), labelled by file name;
 - ``polygon``: the 40 mm square with four sharp 90° corners (``contour_env/data/
   square_corners.nc``, exact stop at each corner), at the plant's case feedrate;
 - ``spline``: an open C² spline through five fixed points (:data:`SPLINE_POINTS`, scaled
   to the plant's workspace), at the plant's case feedrate.
 
-Neither the polygon nor the spline is a training path of the shipped agents (they are trained
-on circles), so these rows measure generalisation.
+Neither the held-out programs, nor the polygon, nor the spline is a training path of the
+shipped agents, so these rows measure generalisation.
 """
 
 from __future__ import annotations
@@ -44,15 +46,23 @@ def _plant_feed(plant: str) -> float:
     raise ValueError(f"plant: no named case uses {plant!r}")
 
 
+def _n_axes(plant: str) -> int:
+    from contour_env.plants import Plant
+
+    return Plant(plant).n_axes
+
+
 def test_targets(meta: dict) -> list[tuple[str, dict]]:
     """(label, env kwargs) of every test contour for the agent described by ``meta``."""
+    from agents.rl.scorecard import targets_for
     from contour_env.paths import spline
 
     plant = meta["plant"]
-    cases = list(meta.get("cases") or [])
-    if plant == "hsm2":
-        cases = sorted(set(cases) | {"hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III"})
+    scored = targets_for(plant, int(meta.get("n_axes") or _n_axes(plant)))
+    named = [label for kind, label, _ in scored if kind == "case"]
+    cases = [c for c in meta.get("cases") or [] if c not in named] + named
     targets = [(c, {"case": c}) for c in cases]
+    targets += [(label, kw) for kind, label, kw in scored if kind == "heldout"]
     feed = _plant_feed(plant)
     polygon = str(files("contour_env") / "data" / "square_corners.nc")
     targets.append(("polygon", {"plant": plant, "path": polygon, "feedrate_m_s": feed}))

@@ -69,13 +69,24 @@ def test_residual_benchmark_scores_agent_and_base_on_polygon_and_spline(tiny_mod
     js = tmp_path / "bench.json"
     assert mod.main(["--models", str(tiny_model), "--json", str(js)]) == 0
     rows = json.loads(js.read_text())["rows"]
-    assert [r["target"] for r in rows] == ["polygon", "spline"]
+    # the friction table's named cases, the held-out programs, the polygon and the spline
+    from agents.rl.scorecard import heldout_programs
+
+    held = [p.name for p in heldout_programs(2)]
+    assert [r["target"] for r in rows] == [
+        "sharp-corner",
+        "corner-blend",
+        *held,
+        "polygon",
+        "spline",
+    ]
     for r in rows:
         assert r["plant"] == "friction-table" and r["base"] == "pd"
         assert r["rms_ratio"] == pytest.approx(
             r["agent_rms_contour_error_um"] / r["base_rms_contour_error_um"]
         )
         assert all(e is None or np.isfinite(e) for e in r["effort_ratio"])
-    # hsm2 agents are also scored on all three Lee circles
-    targets = [t for t, _ in mod.test_targets({"plant": "hsm2", "cases": ["hsm2-circle-I"]})]
-    assert targets == ["hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "polygon", "spline"]
+    # hsm2 agents are scored on every hsm2 case (its training case first) and the suite
+    targets = [t for t, _ in mod.test_targets({"plant": "hsm2", "cases": ["hsm2-circle-II"]})]
+    assert targets[:4] == ["hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "hsm2-payload"]
+    assert targets[4:] == [*held, "polygon", "spline"]
