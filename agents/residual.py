@@ -64,12 +64,14 @@ from gymnasium.vector.utils import batch_space
 from .base import Controller, _core_of
 from .registry import FIVE_AXIS_CONTROLLERS, controller_names, make_controller, plant_family_of
 from .residual_law import (
+    REST_FADE_FEED_FRACTION,
     action_size,
     axis_observation,
     check_flag,
     check_frame,
     path_weights,
     residual_command,
+    rest_fade,
     to_path_frame,
 )
 
@@ -256,6 +258,7 @@ def _agent_action(action, shape, what="action") -> np.ndarray:
 def _configure(
     w, env, core, base, scale, observe_base_command, observation, action_repeat,
     residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
+    fade_at_rest,
 ) -> None:  # fmt: skip
     """The residual law's settings, checked, on wrapper ``w`` (shared by both wrappers)."""
     w.core = core
@@ -264,6 +267,8 @@ def _configure(
     w.residual_frame = check_frame(residual_frame)
     w.gate = check_flag(gate, "gate")
     w.observe_axes = check_flag(observe_axes, "observe_axes")
+    w.fade_at_rest = check_flag(fade_at_rest, "fade_at_rest")
+    w._v_rest = rest_speed(core) if w.fade_at_rest else 0.0
     w._axis_mask = _AxisMask(core, residual_axes)
     w.observe_base_command = bool(observe_base_command)
     w.observation = observation
@@ -278,9 +283,15 @@ def _configure(
 
 def _residual(w, a, signals):
     """(residual (B, n), gate (B,)) of wrapper ``w`` for clipped agent actions ``a``."""
+    fade = rest_fade(signals["feedrate"], w._v_rest) if w._v_rest else None
     return residual_command(
-        a, signals["frame"], w.scale, w._axis_mask(), w.residual_frame, w.gate, w._weights
+        a, signals["frame"], w.scale, w._axis_mask(), w.residual_frame, w.gate, w._weights, fade
     )
+
+
+def rest_speed(core) -> float:
+    """v_rest of :func:`agents.residual_law.rest_fade` for an env core (m/s)."""
+    return REST_FADE_FEED_FRACTION * float(core.setup.feedrate_m_s)
 
 
 def _penalty(w, res) -> np.ndarray:
@@ -298,6 +309,8 @@ _WRAPPER_DOC_ARGS = """
         (default False).
     observe_axes : bool — append the per-axis reference velocity and acceleration to the
         observation (default False).
+    fade_at_rest : bool — no residual while the reference stands still, faded in over the
+        first 5 % of the feed (default False).
 """
 
 
@@ -345,6 +358,7 @@ class ResidualWrapper(gym.Wrapper):
         residual_frame="axes",
         gate=False,
         observe_axes=False,
+        fade_at_rest=False,
     ):
         holder, core = _core_of(env)
         if hasattr(holder, "num_envs"):
@@ -353,6 +367,7 @@ class ResidualWrapper(gym.Wrapper):
         _configure(
             self, env, core, base, scale, observe_base_command, observation, action_repeat,
             residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
+            fade_at_rest,
         )  # fmt: skip
         n = core.dim
         self.action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), dtype=np.float32)
@@ -429,6 +444,7 @@ class ResidualVectorWrapper(VectorWrapper):
         residual_frame="axes",
         gate=False,
         observe_axes=False,
+        fade_at_rest=False,
     ):
         holder, core = _core_of(env)
         if not hasattr(holder, "num_envs"):
@@ -445,6 +461,7 @@ class ResidualVectorWrapper(VectorWrapper):
         _configure(
             self, env, core, base, scale, observe_base_command, observation, action_repeat,
             residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
+            fade_at_rest,
         )  # fmt: skip
         n = core.dim
         self.single_action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), dtype=np.float32)
@@ -633,6 +650,8 @@ class ResidualAgent(Controller):
         self.residual_frame = check_frame(meta.get("residual_frame", "axes"))
         self.gate = check_flag(meta.get("gate", False), "agent.json: gate")
         self.observe_axes = check_flag(meta.get("observe_axes", False), "agent.json: observe_axes")
+        self.fade_at_rest = check_flag(meta.get("fade_at_rest", False), "agent.json: fade_at_rest")
+        self._v_rest = 0.0
         self.is_base = meta.get("kept") == "base"
         self._axis_mask = None
         self.base_name = meta["base"]
@@ -671,6 +690,7 @@ class ResidualAgent(Controller):
         self.base = make_base(self.base_name, env, self.base_kwargs)
         self._axis_mask = _AxisMask(core, self.residual_axes)
         self._weights = path_weights(plant.nominal)
+        self._v_rest = rest_speed(core) if self.fade_at_rest else 0.0
         super().bind(env)
         return self
 
@@ -711,9 +731,10 @@ class ResidualAgent(Controller):
             a = self.agent_action(self._core.obs[:B], sig, base_a)
             self._a[:B][due] = a[due]
         self._count[:B] += 1
+        fade = rest_fade(sig["feedrate"], self._v_rest) if self._v_rest else None
         res, _ = residual_command(
             self._a[:B], sig["frame"], self.scale, self._axis_mask(), self.residual_frame,
-            self.gate, self._weights,
+            self.gate, self._weights, fade,
         )  # fmt: skip
         return np.clip(base_a.astype(np.float64) + res, -1.0, 1.0)
 

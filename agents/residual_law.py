@@ -26,6 +26,16 @@ r ∈ [−scale, scale]ⁿ (fractions of the axis force limit) on the machine ax
 Either way r is multiplied by the axis mask (:func:`agents.residual.path_axes_mask`: zero on
 axes the path does not use) and, with a gate, by g.
 
+**At rest** (``fade_at_rest``). While the reference stands still — a pause for a Z move, a
+dwell, an exact stop, the settle at the end — there is no path to follow: the task frame and
+the curvature are those of the segment about to start (a 3 mm fillet after a plunge pause
+reads as a curvature at the clip of the observation), and the base controller regulates a
+point. An agent that pushes there holds the table off the path through the whole pause (what
+the first path-frame agents did on held-out programs: 50–180 µm for 3–5 s behind stiction).
+With ``fade_at_rest`` the residual is multiplied by min(1, ṡ / v_rest), ṡ the reference's path
+speed and v_rest = :data:`REST_FADE_FEED_FRACTION` × the case feedrate: zero at rest, full
+from 5 % of the feed on (a few servo periods into a start at the plants' jerk limits).
+
 **Gate** (``gate``). The agent has one more action component a_g and the residual is
 g · r with g = clip(a_g, 0, 1): a_g ≤ 0 closes it (the base controller alone). A freshly
 initialised actor outputs a ≈ 0, so the gate starts closed, and the agent opens it where a
@@ -53,6 +63,8 @@ from __future__ import annotations
 import numpy as np
 
 RESIDUAL_FRAMES = ("axes", "path")
+# the residual fades in over the first 5 % of the feed (fade_at_rest)
+REST_FADE_FEED_FRACTION = 0.05
 
 
 def check_frame(residual_frame) -> str:
@@ -84,13 +96,22 @@ def path_weights(plant_params) -> np.ndarray:
     return ratio / ratio.max()
 
 
+def rest_fade(feedrate, v_rest: float):
+    """min(1, ṡ / v_rest) per env (ones when ``v_rest`` is 0: no fade)."""
+    s = np.asarray(feedrate, dtype=np.float64)
+    if v_rest <= 0:
+        return np.ones(s.shape)
+    return np.minimum(s / v_rest, 1.0)
+
+
 def residual_command(
-    a, frame, scale: float, mask, residual_frame: str, gate: bool, weights=None
+    a, frame, scale: float, mask, residual_frame: str, gate: bool, weights=None, fade=None
 ):  # fmt: skip
     """The residual (B, n) in fractions of the force limit and the gate g (B,) for agent
     actions ``a`` (B, n [+ 1]) already clipped to [−1, 1], the task frames ``frame`` (B, n, n)
-    of the current servo period, the axis ``mask`` (n,) and, in the path frame, the axis
-    ``weights`` (n,) of :func:`path_weights` (None: ones)."""
+    of the current servo period, the axis ``mask`` (n,), in the path frame the axis
+    ``weights`` (n,) of :func:`path_weights` (None: ones), and the rest ``fade`` (B,) of
+    :func:`rest_fade` (None: none)."""
     n = mask.shape[0]
     a = np.asarray(a, dtype=np.float64)
     push = a[:, :n]
@@ -110,6 +131,8 @@ def residual_command(
         r = r * g[:, None]
     else:
         g = np.ones(a.shape[0])
+    if fade is not None:
+        r = r * fade[:, None]
     return r, g
 
 

@@ -6,10 +6,10 @@ seeds, scored on the held-out suite and the plant's named cases.
         [--out docs/ablation_<plant>.json] [--markdown]
 
 Each run is ``contour-env train --plant P --paths families --base B --time-budget S`` with one
-variant's ``--residual-frame`` / ``--gate`` (everything else at the trainer's defaults, the
-axis observation on in every variant), run as its own process, ``--parallel`` at a time (each
-with one torch thread); a run that exists in ``--work`` with its ``agent.json`` is not trained
-again. Each kept agent is then scored by :mod:`agents.rl.scorecard` (agent / base RMS contour
+variant's ``--residual-frame`` / ``--gate`` (everything else at the trainer's defaults; the
+axis observation and the fade at rest on in every variant), run as its own process,
+``--parallel`` at a time (each with one torch thread); a run that exists in ``--work`` with its
+``agent.json`` is not trained again. Each kept agent is then scored by :mod:`agents.rl.scorecard` (agent / base RMS contour
 error on every held-out program and named case of the plant). Writes ``--out`` (atomically):
 per run its card, per variant the mean and spread over the seeds of the held-out mean ratio,
 the held-out worst ratio and the worst ratio over every target. ``--markdown`` prints the
@@ -44,6 +44,7 @@ def _command(plant, base, budget_s, seed, variant, out) -> list[str]:
         "families", "--base", base, "--algo", "sac", "--timesteps", "10000000",
         "--time-budget", str(budget_s), "--eval-every-s", str(max(30.0, budget_s / 8)),
         "--seed", str(seed), "--residual-frame", v["residual_frame"], "--observe-axes",
+        "--fade-at-rest",
         "--gate" if v["gate"] else "--no-gate", "--out", str(out), "--no-progress",
     ]  # fmt: skip
     return cmd

@@ -29,7 +29,7 @@ def run_residual_chunk(
     kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
     scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
     terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
-    a, scale, mask, weights, path_frame, gate, n0, n_periods,
+    a, scale, mask, weights, path_frame, gate, v_rest, n0, n_periods,
 ):  # fmt: skip
     """Env 0 for up to ``n_periods`` servo periods from recorded step ``n0`` with the agent's
     action ``a`` held. Returns (n, bad, ended): steps recorded so far, 1 when the base's
@@ -42,7 +42,7 @@ def run_residual_chunk(
         B(reward), B(terminated), B(truncated), B(scratch),
         (B(info[0]), B(info[1]), B(info[2]), B(info[3])),
         B(rec_time), B(rec_eps), B(rec_pos), B(rec_ref), B(rec_force),
-        B(a), scale, B(mask), B(weights), path_frame, gate, n0, n_periods,
+        B(a), scale, B(mask), B(weights), path_frame, gate, v_rest, n0, n_periods,
     )  # fmt: skip
 
 
@@ -51,7 +51,7 @@ def _run_residual_chunk(
     kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
     scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
     terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
-    a, scale, mask, weights, path_frame, gate, n0, n_periods,
+    a, scale, mask, weights, path_frame, gate, v_rest, n0, n_periods,
 ):  # fmt: skip
     A = z.shape[1]
     n_steps = icfg[I_NSTEPS]
@@ -100,10 +100,17 @@ def _run_residual_chunk(
         else:
             for i in range(A):
                 r[i] = scale * push[i]
+        fade = 1.0
+        if v_rest > 0.0:
+            fade = scal[kk, 0] / v_rest
+            if fade > 1.0:
+                fade = 1.0
         for i in range(A):
             ri = r[i] * mask[i]
             if gate:
                 ri = ri * g
+            if v_rest > 0.0:
+                ri = ri * fade
             x = action[b, i] + ri
             if x < -1.0:
                 x = -1.0
@@ -157,7 +164,7 @@ class ResidualForm:
             a = np.ascontiguousarray(agent.agent_action(core.obs[:1], sig, None)[0])
             n, bad, ended = run_residual_chunk(
                 *args, rec_time, rec_eps, rec_pos, rec_ref, rec_force, a, agent.scale, mask,
-                weights, path_frame, agent.gate, n, agent.action_repeat,
+                weights, path_frame, agent.gate, agent._v_rest, n, agent.action_repeat,
             )  # fmt: skip
         self.base_form.store()
         return int(n), bool(bad)
@@ -184,5 +191,5 @@ def warm_up() -> None:
         run_residual_chunk(
             *form._core_args(core), rec["time"], rec["contour_error"], rec["position"],
             rec["reference"], rec["force"], np.zeros(A + 1), 0.05, np.ones(A), np.ones(A), True,
-            True, 0, 3,
+            True, 0.001, 0, 3,
         )  # fmt: skip

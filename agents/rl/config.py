@@ -81,6 +81,8 @@ class TrainConfig:
     residual_frame: str = "path"
     gate: bool = False
     observe_axes: bool = True
+    # no residual while the reference stands still (agents.residual_law, "At rest")
+    fade_at_rest: bool = True
     # env reward weights (ContouringEnv)
     w_contour: float = 1.0
     w_lag: float = 0.0
@@ -159,7 +161,7 @@ class TrainConfig:
                 f"residual_frame: must be one of {', '.join(RESIDUAL_FRAMES)}, got "
                 f"{self.residual_frame!r}"
             )
-        for key in ("gate", "observe_axes"):
+        for key in ("gate", "observe_axes", "fade_at_rest"):
             if not isinstance(getattr(self, key), bool):
                 raise ValueError(f"{key}: expected true or false, got {getattr(self, key)!r}")
         if self.gcode and not self.plant:
@@ -293,6 +295,7 @@ class TrainConfig:
             "residual_frame": self.residual_frame,
             "gate": self.gate,
             "observe_axes": self.observe_axes,
+            "fade_at_rest": self.fade_at_rest,
         }
 
     # --- JSON ------------------------------------------------------------------------------
@@ -320,6 +323,7 @@ class TrainConfig:
         data.setdefault("residual_frame", "axes")
         data.setdefault("gate", False)
         data.setdefault("observe_axes", False)
+        data.setdefault("fade_at_rest", False)
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:

@@ -139,6 +139,7 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
         "residual_frame": cfg.residual_frame,
         "gate": cfg.gate,
         "observe_axes": cfg.observe_axes,
+        "fade_at_rest": cfg.fade_at_rest,
         "action_repeat": int(g.action_repeat),
         "servo_period_s": float(g.core.T),
         "cases": list(cfg.cases),

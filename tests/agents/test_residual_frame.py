@@ -273,3 +273,38 @@ def test_compiled_agent_episode_equals_the_python_loop_to_the_bit(plant, path, f
     np.testing.assert_array_equal(rc.contour_error, rp.contour_error)
     np.testing.assert_array_equal(rc.force, rp.force)
     np.testing.assert_array_equal(rc.position, rp.position)
+
+
+def test_fade_at_rest_is_no_residual_while_the_reference_stands_still():
+    """A G04 dwell and the settle at the end: the reference's speed is 0, the residual too;
+    it is full from 5 % of the feed on."""
+    from agents.residual_law import rest_fade
+
+    np.testing.assert_array_equal(rest_fade([0.0, 0.0005, 0.001, 0.02], 0.001), [0, 0.5, 1, 1])
+    np.testing.assert_array_equal(rest_fade([0.0, 0.3], 0.0), [1.0, 1.0])
+    prog = "G21 G90 G17 G61\nG01 X2 F1200\nG04 P0.3\nG01 Y2\n"
+    kw = dict(plant="friction-table", path=prog)
+    w = ResidualWrapper(gym.make(ENV_ID, **kw), "ccc", residual_frame="path", fade_at_rest=True)
+    w.reset(seed=0)
+    at_rest, moving = [], []
+    done = False
+    while not done:
+        speed = float(w.core.signals_batch()["feedrate"][0])
+        _, _, term, trunc, info = w.step(np.array([1.0, 0.0], dtype=np.float32))
+        (at_rest if speed == 0 else moving).append(np.abs(info["residual_action"]).max())
+        done = term or trunc
+    assert len(at_rest) > 300 and max(at_rest) == 0.0  # the dwell and the settle
+    assert max(moving) == pytest.approx(0.05 * 1.0, rel=0.05)  # friction-table: w = (1, 0.98)
+
+
+def test_compiled_agent_with_fade_at_rest_equals_the_python_loop():
+    from agents.rl.heldout import HELDOUT_DIR
+
+    kw = dict(plant="friction-table", path=str(HELDOUT_DIR / "slot_fillets.nc"))
+    agent = _random_agent(kw, "ccc", "path", observe_axes=True, gain=3.0)
+    agent.fade_at_rest = True
+    rc = run_episode(gym.make(ENV_ID, **kw), agent, seed=1)
+    assert agent._v_rest == pytest.approx(0.05 * agent._core.setup.feedrate_m_s)
+    rp = run_episode(gym.make(ENV_ID, **kw), agent, seed=1, compiled=False)
+    np.testing.assert_array_equal(rc.contour_error, rp.contour_error)
+    np.testing.assert_array_equal(rc.force, rp.force)
