@@ -9,11 +9,11 @@ Each run is ``contour-env train --plant P --paths families --base B --time-budge
 variant's ``--residual-frame`` / ``--gate`` (everything else at the trainer's defaults; the
 axis observation and the fade at rest on in every variant), run as its own process,
 ``--parallel`` at a time (each with one torch thread); a run that exists in ``--work`` with its
-``agent.json`` is not trained again. Each kept agent is then scored by :mod:`agents.rl.scorecard` (agent / base RMS contour
-error on every held-out program and named case of the plant). Writes ``--out`` (atomically):
-per run its card, per variant the mean and spread over the seeds of the held-out mean ratio,
-the held-out worst ratio and the worst ratio over every target. ``--markdown`` prints the
-README's table.
+``agent.json`` is not trained again. Each kept agent is then scored by
+:mod:`agents.rl.scorecard` (agent / base RMS contour error on every held-out program and named
+case of the plant). Writes ``--out`` (atomically): per run its card, per variant the mean and
+spread over the seeds of the held-out mean ratio, the held-out worst ratio and the worst ratio
+over every target. ``--markdown`` prints the README's table.
 """
 
 from __future__ import annotations

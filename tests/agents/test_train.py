@@ -111,6 +111,7 @@ def _wrapper_of(agent):
         residual_frame=agent.meta["residual_frame"],
         gate=agent.meta["gate"],
         observe_axes=agent.meta["observe_axes"],
+        fade_at_rest=agent.meta["fade_at_rest"],
     )
 
 
