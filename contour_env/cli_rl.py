@@ -79,7 +79,7 @@ def config_from_args(args):
     if args.validation_paths is not None:
         kw["validation_paths"] = args.validation_paths
     # the residual law's options: TrainConfig's defaults unless given
-    for key in ("residual_frame", "gate", "observe_axes", "fade_at_rest"):
+    for key in ("residual_frame", "gate", "observe_axes", "fade_at_rest", "reward_scale"):
         value = getattr(args, key, None)
         if value is not None:
             kw[key] = value
@@ -308,6 +308,13 @@ def add_rl_commands(sub) -> None:
         action=argparse.BooleanOptionalAction,
         default=None,
         help="give the agent each axis' reference velocity and acceleration (default on)",
+    )
+    p.add_argument(
+        "--reward-scale",
+        choices=("base", "fixed"),
+        default=None,
+        help="the reward's error scale per part: the base's RMS contour error on it (base, "
+        "default: every part weighs the same) or the env's 10 um (fixed)",
     )
     p.add_argument(
         "--fade-at-rest",

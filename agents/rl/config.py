@@ -45,6 +45,7 @@ from .heldout import refuse_heldout
 
 ALGOS = ("sac", "td3", "ppo")
 PATH_VARIETY = ("circles", "splines", "families")
+REWARD_SCALES = ("base", "fixed")
 CONFIG_FORMAT = "contour_env.train_config/1"
 # keys that may differ on --resume
 RESUMABLE_KEYS = ("timesteps", "time_budget_s", "eval_every_s")
@@ -83,6 +84,9 @@ class TrainConfig:
     observe_axes: bool = True
     # no residual while the reference stands still (agents.residual_law, "At rest")
     fade_at_rest: bool = True
+    # the reward's error scale per task: "base" (the base's RMS contour error on the part:
+    # r = -eps / eps_base, every part weighs the same) or "fixed" (the env's 10 um)
+    reward_scale: str = "base"
     # env reward weights (ContouringEnv)
     w_contour: float = 1.0
     w_lag: float = 0.0
@@ -160,6 +164,11 @@ class TrainConfig:
             raise ValueError(
                 f"residual_frame: must be one of {', '.join(RESIDUAL_FRAMES)}, got "
                 f"{self.residual_frame!r}"
+            )
+        if self.reward_scale not in REWARD_SCALES:
+            raise ValueError(
+                f"reward_scale: must be one of {', '.join(REWARD_SCALES)}, got "
+                f"{self.reward_scale!r}"
             )
         for key in ("gate", "observe_axes", "fade_at_rest"):
             if not isinstance(getattr(self, key), bool):
@@ -324,6 +333,7 @@ class TrainConfig:
         data.setdefault("gate", False)
         data.setdefault("observe_axes", False)
         data.setdefault("fade_at_rest", False)
+        data.setdefault("reward_scale", "fixed")
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:

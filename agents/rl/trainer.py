@@ -225,7 +225,10 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     torch.set_num_threads(cfg.torch_threads)
     set_random_seed(cfg.seed)
     sampler = TaskSampler(cfg, cfg.seed)
-    raw = ResidualTrainVecEnv(sampler, cfg.num_envs, cfg.wrapper_kwargs(), seed=cfg.seed + 1)
+    raw = ResidualTrainVecEnv(
+        sampler, cfg.num_envs, cfg.wrapper_kwargs(), seed=cfg.seed + 1,
+        reward_scale=cfg.reward_scale,
+    )  # fmt: skip
     monitored = VecMonitor(raw)
     if ckpt is not None:
         venv = VecNormalize.load(str(ckpt / "vecnormalize.pkl"), monitored)

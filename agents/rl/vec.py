@@ -22,9 +22,38 @@ from contour_env import ENV_ID
 
 from ..residual import ResidualVectorWrapper
 
+# the reward scale of a task is never below this (m): a part the base follows within a tenth
+# of a micrometre would otherwise give rewards of thousands per step
+MIN_REWARD_SCALE_M = 1e-7
 
-def make_residual_vec(task: dict, n: int, wrapper_kwargs: dict) -> ResidualVectorWrapper:
+
+def base_error_scale(task: dict, base: str) -> float:
+    """The base controller's RMS contour error (m) on the task (seed 0, the compiled loop where
+    it applies), at least :data:`MIN_REWARD_SCALE_M`: the task's reward scale with
+    ``reward_scale="base"``, so that a step's reward −ε / ε_base is in units of what the base
+    does on this part and every part weighs the same in the return, as in the per-part ratios
+    that choose and judge the agent."""
+    from contour_env.evaluation import evaluate
+
+    from ..registry import make_controller
+
     kw = dict(task)
+    params = kw.pop("plant_params", None)
+    if params is not None:
+        kw["plant_params"] = params[:1]
+    m = evaluate(gym.make(ENV_ID, **kw), make_controller(base))
+    rms = m["rms_contour_error_um"]
+    if rms is None or not np.isfinite(rms) or not m["completed"]:
+        return 10e-6  # the env's default scale: the base does not complete the task
+    return max(float(rms) * 1e-6, MIN_REWARD_SCALE_M)
+
+
+def make_residual_vec(task: dict, n: int, wrapper_kwargs: dict, reward_scale="fixed"):
+    """The residual vector env of ``n`` envs on ``task``; with ``reward_scale="base"`` the
+    env's ``contour_error_scale_m`` is the base's RMS contour error on the task."""
+    kw = dict(task)
+    if reward_scale == "base":
+        kw["contour_error_scale_m"] = base_error_scale(task, wrapper_kwargs["base"])
     params = kw.pop("plant_params", None)
     if params is not None and len(params) != n:
         params = [params[i % len(params)] for i in range(n)]
@@ -37,9 +66,10 @@ def make_residual_vec(task: dict, n: int, wrapper_kwargs: dict) -> ResidualVecto
 class ResidualTrainVecEnv(VecEnv):
     """sb3 VecEnv of ``n_envs`` residual envs drawn from ``sampler`` (seeded by ``seed``)."""
 
-    def __init__(self, sampler, n_envs: int, wrapper_kwargs: dict, seed: int):
+    def __init__(self, sampler, n_envs: int, wrapper_kwargs: dict, seed: int, reward_scale="fixed"):
         self.sampler = sampler
         self.wrapper_kwargs = dict(wrapper_kwargs)
+        self.reward_scale = reward_scale
         self.rng = np.random.default_rng(seed)
         self.resample = not sampler.fixed
         if self.resample:
@@ -51,7 +81,7 @@ class ResidualTrainVecEnv(VecEnv):
         super().__init__(n_envs, g0.single_observation_space, g0.single_action_space)
 
     def _build(self, n: int) -> ResidualVectorWrapper:
-        return make_residual_vec(self.sampler.sample(), n, self.wrapper_kwargs)
+        return make_residual_vec(self.sampler.sample(), n, self.wrapper_kwargs, self.reward_scale)
 
     def _seed(self) -> int:
         return int(self.rng.integers(0, 2**31))

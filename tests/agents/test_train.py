@@ -446,3 +446,33 @@ def test_an_agent_kept_as_its_base_says_so_in_compare_and_evaluate(
                  gcode]) == 0  # fmt: skip
     printed = capsys.readouterr().out
     assert "is its base pd" in printed and "agent/base: 1.000" in printed
+
+
+def test_reward_scale_base_is_the_base_error_on_the_part(gcode):
+    from agents.registry import make_controller
+    from agents.rl.tasks import TaskSampler
+    from agents.rl.vec import ResidualTrainVecEnv
+
+    cfg = TrainConfig(gcode=(gcode,), algo="sac", **TINY)
+    assert cfg.reward_scale == "base"
+    venv = ResidualTrainVecEnv(
+        TaskSampler(cfg, 0), 1, cfg.wrapper_kwargs(), seed=1, reward_scale="base"
+    )
+    core = venv.groups[0].core
+    m = evaluate(gym.make(ENV_ID, plant="friction-table", path=gcode), make_controller(cfg.base))
+    assert core.config.contour_error_scale_m == pytest.approx(m["rms_contour_error_um"] * 1e-6)
+    # zero residual: the mean reward per servo period is -mean(eps) / eps_rms_base
+    venv.reset()
+    total, n = 0.0, 0
+    while True:
+        _, r, done, info = venv.step(np.zeros((1, venv.action_space.shape[0]), np.float32))
+        total += float(r[0])
+        n += 1
+        if done[0]:
+            break
+    want = m["mean_abs_contour_error_um"] / m["rms_contour_error_um"]
+    assert -total / n == pytest.approx(want, rel=1e-6)  # (sb3 rewards are float32)
+    fixed = ResidualTrainVecEnv(TaskSampler(cfg, 0), 1, cfg.wrapper_kwargs(), seed=1)
+    assert fixed.groups[0].core.config.contour_error_scale_m == 10e-6
+    with pytest.raises(ValueError, match="reward_scale: must be one of base, fixed"):
+        TrainConfig(gcode=(gcode,), reward_scale="median", **TINY)
