@@ -278,14 +278,22 @@ def _configure(
     w.base = make_base(base, env, base_kwargs)
     w.n_axes = core.dim
     w.n_actions = action_size(core.dim, w.gate)
-    w._weights = path_weights(core.setup.plant.nominal)
+    w._weights = None
+    if w.residual_frame == "path":
+        if getattr(core.setup.plant, "family", None) == "five-axis":
+            raise ValueError(
+                "residual_frame: 'path' is for the feed-drive plants (the tool-tip frame does "
+                "not span the five joints); use residual_frame='axes' on the five-axis plant"
+            )
+        w._weights = path_weights(core.setup.plant.nominal)
 
 
 def _residual(w, a, signals):
     """(residual (B, n), gate (B,)) of wrapper ``w`` for clipped agent actions ``a``."""
     fade = rest_fade(signals["feedrate"], w._v_rest) if w._v_rest else None
+    frame = signals["frame"] if w.residual_frame == "path" else None
     return residual_command(
-        a, signals["frame"], w.scale, w._axis_mask(), w.residual_frame, w.gate, w._weights, fade
+        a, frame, w.scale, w._axis_mask(), w.residual_frame, w.gate, w._weights, fade
     )
 
 

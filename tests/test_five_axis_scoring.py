@@ -161,3 +161,11 @@ def test_five_axis_controllers_are_residual_bases(base):
     assert errors[0.5] > 10 * errors[0.0]
     with pytest.raises(ValueError, match="base: unknown controller 'ccc'; known: pd, ismc"):
         ResidualWrapper(gym.make(ENV_ID, case="five-axis-line", ideal=True), "ccc")
+
+
+def test_the_path_frame_residual_is_refused_on_the_five_axis_plant():
+    from agents.residual import ResidualWrapper
+
+    env = gym.make(ENV_ID, case="five-axis-line", ideal=True)
+    with pytest.raises(ValueError, match="residual_frame"):
+        ResidualWrapper(env, "pd", residual_frame="path")
