@@ -51,6 +51,8 @@ CORNER_ANGLE_DEG = (15.0, 150.0)
 POLYLINE_LEGS = (3, 8)
 ARC_SWEEP_DEG = (30.0, 330.0)
 SPLINE_POINTS = (5, 7)
+# turn of the spline's control polygon at each interior point (deg, either way)
+SPLINE_TURN_DEG = (10.0, 75.0)
 HELIX_TURNS = (0.5, 3.0)
 # helix rise per revolution as a fraction of its radius
 HELIX_PITCH_PER_RADIUS = (0.05, 0.5)
@@ -498,15 +500,24 @@ def _spline(d: _Draw):
     n = int(rng.integers(SPLINE_POINTS[0], SPLINE_POINTS[1] + 1))
     size = d.size()
     u, v, w, tilted = _plane_basis(rng, d.n_axes)
-    local = rng.uniform(-0.5, 0.5, size=(n, 2)) * size
-    local -= local[0]
+    # control points as a walk of chords U[0.5, 1] turning by U[SPLINE_TURN_DEG] either way at
+    # each point: random points in a square (the first form) put cusps in one spline in two,
+    # whose curvature no feed of the plant's interval could follow (linear motor: 2 % drawn)
+    turns = np.radians(rng.uniform(*SPLINE_TURN_DEG, size=n - 2))
+    turns *= rng.choice([-1.0, 1.0], size=n - 2)
+    headings = float(rng.uniform(0.0, 2 * math.pi)) + np.concatenate([[0.0], np.cumsum(turns)])
+    chords = rng.uniform(0.5, 1.0, size=n - 1)
+    steps = np.column_stack([np.cos(headings), np.sin(headings)]) * chords[:, None]
+    local = np.vstack([np.zeros(2), np.cumsum(steps, axis=0)])
+    local /= max(float(np.max(np.ptp(local, axis=0))), 1e-12)
     pts = local[:, :1] * u + local[:, 1:] * v
     if d.n_axes == 3 and tilted:
         # a fully 3-D spline: the points leave the plane too
-        pts = pts + np.outer(rng.uniform(-0.25, 0.25, size=n) * size, w)
+        pts = pts + np.outer(rng.uniform(-0.25, 0.25, size=n), w)
         pts -= pts[0]
-    if np.min(np.linalg.norm(np.diff(pts, axis=0), axis=1)) < 0.2 * size:
-        return None
+    # the curve (not only its control points) spans `size` on its widest machine axis
+    extent = float(np.max(np.ptp(spline(pts).sample_points(400), axis=0)))
+    pts = pts * (size / extent)
     path = spline(pts)
     feed0 = float(rng.uniform(*d.r.feed_m_s))
     if path.total_length > feed0 * d.r.max_path_time_s:
