@@ -90,3 +90,29 @@ def test_residual_benchmark_scores_agent_and_base_on_polygon_and_spline(tiny_mod
     targets = [t for t, _ in mod.test_targets({"plant": "hsm2", "cases": ["hsm2-circle-II"]})]
     assert targets[:4] == ["hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "hsm2-payload"]
     assert targets[4:] == [*held, "polygon", "spline"]
+
+
+def _card(held, cases, kept):
+    rows = [{"kind": "heldout", "rms_ratio": r} for r in held]
+    rows += [{"kind": "case", "rms_ratio": r} for r in cases]
+    from agents.rl.scorecard import summary
+
+    return {"kept": kept, **summary(rows)}
+
+
+def test_ablation_summary_and_table_follow_from_the_cards():
+    mod = _script("residual_ablation")
+    cards = {
+        "path": [_card([0.5, 0.7], [0.9], "best-validation"), _card([1.0, 1.0], [1.0], "base")],
+        "axes": [_card([2.0, None], [1.0], "final"), _card([1.5, 0.5], [3.0], "final")],
+    }
+    s = mod.summarise(cards)
+    assert s["path"]["heldout_mean_ratio"]["mean"] == pytest.approx((0.6 + 1.0) / 2)
+    assert s["path"]["worst_ratio"]["values"] == [0.9, 1.0]
+    assert s["path"]["kept_base"] == 1 and s["path"]["seeds"] == 2
+    # a part not completed by one seed: no mean, no max (an infinite ratio), the min of the rest
+    assert s["axes"]["heldout_mean_ratio"]["mean"] is None
+    assert s["axes"]["heldout_worst_ratio"]["min"] == pytest.approx(1.5)
+    table = mod.markdown({"plant": "friction-table", "summary": s, "summary_final": s})
+    assert "| `path` | 0.80 (0.60–1.00) | 0.95 (0.90–1.00) | 1 of 2 |" in table
+    assert "not completed on every part" in table
