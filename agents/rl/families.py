@@ -11,7 +11,7 @@ default_rng(seed)`` alone, so a seed names a path. Families (:data:`FAMILIES`):
   :data:`MIN_AXIS_ANGLE_DEG` of a machine axis;
 - ``arcs``: one arc of random radius, start angle, sweep and direction;
 - ``circles``: one full circle of random radius, start angle and direction;
-- ``splines``: an open C² spline through 5–7 random points;
+- ``splines``: an open C² spline through 5–7 points of a random walk of chords;
 - ``programs``: a planar contour as a shop program carries it — lines with or without
   tangent G02/G03 fillets at the corners, free or right-angle (axis-aligned) corners, exact
   stop (G61) or blending (G64 P), a rapid (G00) approach, a Z plunge and retract (pauses on a
