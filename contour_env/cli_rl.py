@@ -78,6 +78,10 @@ def config_from_args(args):
     )
     if args.validation_paths is not None:
         kw["validation_paths"] = args.validation_paths
+    if args.learning_rate is not None:
+        kw["learning_rate"] = args.learning_rate
+    if args.learning_rate_final is not None:
+        kw["learning_rate_final"] = args.learning_rate_final
     # the residual law's options: TrainConfig's defaults unless given
     for key in ("residual_frame", "gate", "observe_axes", "fade_at_rest", "reward_scale"):
         value = getattr(args, key, None)
@@ -361,6 +365,15 @@ def add_rl_commands(sub) -> None:
         "--circle-radius", help="random circle radius range MIN,MAX in m (default 0.005,0.05)"
     )
     p.add_argument("--net-arch", help="hidden layer sizes, e.g. 64,64 (default)")
+    p.add_argument("--learning-rate", type=float, default=None, metavar="LR", help="default 3e-4")
+    p.add_argument(
+        "--learning-rate-final",
+        type=float,
+        default=None,
+        metavar="LR",
+        help="anneal the learning rate geometrically to LR over the run (over --time-budget "
+        "when given, else over --timesteps); default: constant",
+    )
     p.add_argument("--eval-freq", type=int, default=None, help="timesteps between evaluations")
     p.add_argument(
         "--eval-every-s",

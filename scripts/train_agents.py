@@ -34,6 +34,8 @@ SHIPPED_FILES = (
     "learning_curve.json",
     "learning_curve.png",
 )
+# shipped too when the run wrote them (validation runs): the keep-best record of each checkpoint
+OPTIONAL_FILES = ("validation_curve.json", "validation_curve.png")
 
 # one entry per shipped agent: TrainConfig keywords (everything else at its default)
 SHIPPED = {
@@ -85,6 +87,9 @@ def install(run_dir: Path, name: str) -> Path:
     tmp.mkdir(parents=True)
     for f in SHIPPED_FILES:
         shutil.copy2(run_dir / f, tmp / f)
+    for f in OPTIONAL_FILES:
+        if (run_dir / f).is_file():
+            shutil.copy2(run_dir / f, tmp / f)
     if dest.exists():
         shutil.rmtree(dest)
     tmp.rename(dest)
@@ -107,8 +112,13 @@ def main(argv=None) -> int:
         if out.exists():
             shutil.rmtree(out)
         t0 = time.perf_counter()
-        res = train(TrainConfig(seed=0, **SHIPPED[name]), out, progress=not args.no_progress)
-        print(f"{name}: {res['timesteps']} timesteps in {time.perf_counter() - t0:.0f} s")
+        cfg = TrainConfig(**{"seed": 0, **SHIPPED[name]})
+        res = train(cfg, out, progress=not args.no_progress)
+        print(
+            f"{name}: {res['timesteps']} timesteps, {time.perf_counter() - t0:.0f} s wall "
+            f"(training and validation), kept: {res.get('kept')}",
+            flush=True,
+        )
         if args.install:
             print(f"installed {install(out, name)}")
     return 0

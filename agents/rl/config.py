@@ -106,6 +106,9 @@ class TrainConfig:
     # learner
     net_arch: tuple = (64, 64)
     learning_rate: float = 3e-4
+    # anneal the learning rate geometrically from learning_rate to this over the run (over
+    # time_budget_s of training time when set, else over timesteps); None: constant
+    learning_rate_final: float | None = None
     gamma: float = 0.98
     batch_size: int | None = None
     buffer_size: int = 200_000
@@ -235,6 +238,8 @@ class TrainConfig:
         for key in ("residual_penalty", "w_contour", "w_lag", "w_effort"):
             _num(self, key, 0.0, math.inf)
         _num(self, "learning_rate", 0.0, 1.0, open_low=True)
+        if self.learning_rate_final is not None:
+            _num(self, "learning_rate_final", 0.0, self.learning_rate, open_low=True)
         _num(self, "spline_size_m", 0.0, 10.0, open_low=True)
         bad = [v for v in self.path_variety if v not in PATH_VARIETY]
         if bad:

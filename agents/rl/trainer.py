@@ -63,6 +63,7 @@ from .checkpoint import (
     write_checkpoint,
 )
 from .config import TrainConfig, load_config
+from .schedule import AnnealedRate
 from .tasks import TaskSampler
 from .validation import BestKeeper, Validator, curve_point, validation_record
 from .vec import ResidualTrainVecEnv
@@ -257,6 +258,11 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             tensorboard_log=tb,
             **_model_kwargs(cfg, n_actions),
         )
+    rate = None
+    if cfg.learning_rate_final is not None:
+        rate = AnnealedRate(cfg.learning_rate, cfg.learning_rate_final)
+        model.learning_rate = rate
+        model.lr_schedule = rate
     evaluator = Evaluator(sampler, cfg) if sampler.nominal_tasks() else None
     validator = Validator(cfg) if cfg.validation_paths else None
     best = BestKeeper(out) if validator is not None else None
@@ -374,6 +380,12 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 self.bar.update(self.num_timesteps - self.bar.n)
             if cfg.time_budget_s is not None and train_s() >= cfg.time_budget_s:
                 return False  # sb3 ends learn(); the run is finished as at its last step
+            if rate is not None:
+                rate.at(
+                    train_s() / cfg.time_budget_s
+                    if cfg.time_budget_s is not None
+                    else self.num_timesteps / cfg.timesteps
+                )
             by_time = self.next_eval_s is not None and train_s() >= self.next_eval_s
             if self.num_timesteps >= self.next_eval or by_time:
                 self._evaluate()

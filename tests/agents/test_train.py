@@ -196,6 +196,8 @@ def test_new_run_into_an_existing_out_dir_is_refused(sac_run):
         ({"path_variety": ("squares",)}, r"path_variety: unknown \['squares'\]"),
         ({"randomize_plant": 1.5}, "randomize_plant"),
         ({"timesteps": 0}, "timesteps"),
+        ({"learning_rate_final": 1e-3}, r"learning_rate_final: must be > 0.0 and <= 0.0003"),
+        ({"learning_rate_final": 0.0}, "learning_rate_final"),
     ],
 )
 def test_bad_configuration_is_a_clear_error(gcode, kwargs, match):
@@ -476,3 +478,13 @@ def test_reward_scale_base_is_the_base_error_on_the_part(gcode):
     assert fixed.groups[0].core.config.contour_error_scale_m == 10e-6
     with pytest.raises(ValueError, match="reward_scale: must be one of base, fixed"):
         TrainConfig(gcode=(gcode,), reward_scale="median", **TINY)
+
+
+def test_the_learning_rate_anneals_to_its_final_value(tmp_path, gcode):
+    cfg = TrainConfig(gcode=(gcode,), algo="sac", learning_rate_final=3e-5, **TINY)
+    train(cfg, tmp_path / "run", progress=False, log=lambda s: None)
+    model = load_model(tmp_path / "run" / "final" / "model.zip", "sac")
+    # the last gradient step ran at the end of the run: the final rate (the start rate if the
+    # schedule were not applied)
+    for opt in (model.actor.optimizer, model.critic.optimizer):
+        assert opt.param_groups[0]["lr"] == pytest.approx(3e-5, rel=1e-9)
