@@ -3,7 +3,7 @@ seeds, scored on the held-out suite and the plant's named cases.
 
     python scripts/residual_ablation.py [--plant friction-table] [--base ccc]
         [--budget-s 600] [--seeds 0,1,2] [--parallel 2] [--work out/ablation]
-        [--out docs/ablation_<plant>.json] [--markdown]
+        [--out docs/ablation_<plant>.json] [--markdown] [--train-args '...']
 
 Each run is ``contour-env train --plant P --paths families --base B --time-budget S`` with one
 variant's ``--residual-frame`` / ``--gate`` (everything else at the trainer's defaults; the
@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -37,7 +38,7 @@ VARIANTS = {
 }
 
 
-def _command(plant, base, budget_s, seed, variant, out) -> list[str]:
+def _command(plant, base, budget_s, seed, variant, out, extra=()) -> list[str]:
     v = VARIANTS[variant]
     cmd = [
         sys.executable, "-m", "contour_env.cli", "train", "--plant", plant, "--paths",
@@ -46,6 +47,7 @@ def _command(plant, base, budget_s, seed, variant, out) -> list[str]:
         "--seed", str(seed), "--residual-frame", v["residual_frame"], "--observe-axes",
         "--fade-at-rest",
         "--gate" if v["gate"] else "--no-gate", "--out", str(out), "--no-progress",
+        *extra,
     ]  # fmt: skip
     return cmd
 
@@ -134,11 +136,18 @@ def main(argv=None) -> int:
     ap.add_argument("--work", default="out/ablation")
     ap.add_argument("--out", default=None, help="JSON (default docs/ablation_<plant>.json)")
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument(
+        "--train-args",
+        default="",
+        help="more contour-env train options for every run, e.g. "
+        "'--learning-rate-final 3e-5 --validation-paths 16' (the same for every variant)",
+    )
     args = ap.parse_args(argv)
     from agents.rl.scorecard import scorecard
     from contour_env.io import atomic_write_json
 
     seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
+    extra = shlex.split(args.train_args)
     variants = [v for v in args.variants.split(",") if v]
     bad = [v for v in variants if v not in VARIANTS]
     if bad:
@@ -148,7 +157,7 @@ def main(argv=None) -> int:
         (v, s): work / f"{v.replace('+', '-')}-s{s}" for v in variants for s in seeds
     }  # fmt: skip
     jobs = [
-        (out, _command(args.plant, args.base, args.budget_s, s, v, out))
+        (out, _command(args.plant, args.base, args.budget_s, s, v, out, extra))
         for (v, s), out in runs.items()
     ]
     t0 = time.perf_counter()
@@ -174,6 +183,7 @@ def main(argv=None) -> int:
         "plant": args.plant,
         "base": args.base,
         "budget_s": args.budget_s,
+        "train_args": extra,
         "seeds": seeds,
         "wall_s": time.perf_counter() - t0,
         "summary": summarise(cards_by_variant),
