@@ -2,10 +2,10 @@
 seeds, scored on the held-out suite and the plant's named cases.
 
     python scripts/residual_ablation.py [--plant friction-table] [--base ccc]
-        [--budget-s 600] [--seeds 0,1,2] [--parallel 2] [--work out/ablation]
+        [--timesteps 60000] [--seeds 0,1,2] [--parallel 2] [--work out/ablation]
         [--out docs/ablation_<plant>.json] [--markdown] [--train-args '...']
 
-Each run is ``contour-env train --plant P --paths families --base B --time-budget S`` with one
+Each run is ``contour-env train --plant P --paths families --base B --timesteps N`` with one
 variant's ``--residual-frame`` / ``--gate`` (everything else at the trainer's defaults; the
 axis observation and the fade at rest on in every variant), run as its own process,
 ``--parallel`` at a time (each with one torch thread); a run that exists in ``--work`` with its
@@ -38,12 +38,12 @@ VARIANTS = {
 }
 
 
-def _command(plant, base, budget_s, seed, variant, out, extra=()) -> list[str]:
+def _command(plant, base, timesteps, seed, variant, out, extra=()) -> list[str]:
     v = VARIANTS[variant]
     cmd = [
         sys.executable, "-m", "contour_env.cli", "train", "--plant", plant, "--paths",
-        "families", "--base", base, "--algo", "sac", "--timesteps", "10000000",
-        "--time-budget", str(budget_s), "--eval-every-s", str(max(30.0, budget_s / 8)),
+        "families", "--base", base, "--algo", "sac", "--timesteps", str(timesteps),
+        "--eval-freq", str(max(1, timesteps // 8)),
         "--seed", str(seed), "--residual-frame", v["residual_frame"], "--observe-axes",
         "--fade-at-rest",
         "--gate" if v["gate"] else "--no-gate", "--out", str(out), "--no-progress",
@@ -129,7 +129,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plant", default="friction-table")
     ap.add_argument("--base", default="ccc")
-    ap.add_argument("--budget-s", type=float, default=600.0, help="training time per run, s")
+    ap.add_argument(
+        "--timesteps",
+        type=int,
+        default=60_000,
+        help="agent steps per run (a budget in steps, not seconds: the variants get the same "
+        "training whatever else the machine runs; 60k steps are about 4-5 min of SAC here)",
+    )
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--variants", default=",".join(VARIANTS))
     ap.add_argument("--parallel", type=int, default=2)
@@ -157,7 +163,7 @@ def main(argv=None) -> int:
         (v, s): work / f"{v.replace('+', '-')}-s{s}" for v in variants for s in seeds
     }  # fmt: skip
     jobs = [
-        (out, _command(args.plant, args.base, args.budget_s, s, v, out, extra))
+        (out, _command(args.plant, args.base, args.timesteps, s, v, out, extra))
         for (v, s), out in runs.items()
     ]
     t0 = time.perf_counter()
@@ -182,7 +188,7 @@ def main(argv=None) -> int:
     result = {
         "plant": args.plant,
         "base": args.base,
-        "budget_s": args.budget_s,
+        "timesteps": args.timesteps,
         "train_args": extra,
         "seeds": seeds,
         "wall_s": time.perf_counter() - t0,
