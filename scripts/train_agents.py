@@ -1,7 +1,7 @@
 """Train the shipped residual agents (``agents/models/<plant>/``) exactly as they were made.
 
     python scripts/train_agents.py [--only linear-motor,friction-table,hsm2] [--work DIR]
-        [--install]
+        [--install] [--from-run DIR]
 
 Each agent is one ``contour-env train`` run with the configuration in :data:`SHIPPED` (seed 0,
 one torch thread, this 2-core CPU); the run goes to ``--work/<plant>`` (default
@@ -37,44 +37,39 @@ SHIPPED_FILES = (
 # shipped too when the run wrote them (validation runs): the keep-best record of each checkpoint
 OPTIONAL_FILES = ("validation_curve.json", "validation_curve.png")
 
-# one entry per shipped agent: TrainConfig keywords (everything else at its default)
+# one entry per shipped agent: TrainConfig keywords (everything else at its default, seed 0
+# unless given). Every agent trains on the path families (agents/rl/families.py) in the path
+# frame with the axis observation, the fade at rest and the reward scaled by the base's error on
+# each part (the defaults), with a learned gate and a learning rate annealed 3e-4 -> 3e-5 over
+# 20 minutes of training time; the model kept is the checkpoint no worse than the base on any
+# validation part with the lowest mean ratio, or the base itself (issue 33).
+_RECIPE = dict(
+    path_variety=("families",),
+    algo="sac",
+    timesteps=10_000_000,  # the time budget ends the run
+    time_budget_s=1200.0,
+    eval_every_s=60.0,
+    gate=True,
+    learning_rate_final=3e-5,
+)
 SHIPPED = {
-    # the friction and ripple of the linear motor across the x reversal of the inclined arc;
-    # base: CCC, the best classical controller on lm-circle3d (contour-env compare)
-    "linear-motor": dict(
-        cases=("lm-circle3d",), base="ccc", algo="sac", timesteps=60_000, eval_freq=10_000
-    ),
-    # stiction at the exact-stop corner of the friction table; base: CCC, the best classical
-    # controller on sharp-corner with the margin-checked defaults (contour-env compare). The
-    # agent sees only the task-frame errors and also trains on random circles, so that it
-    # does not spoil paths it was not trained on (README table)
-    "friction-table": dict(
-        cases=("sharp-corner",),
-        path_variety=("circles",),
-        observation="errors",
-        residual_penalty=5.0,
-        base="ccc",
-        algo="sac",
-        timesteps=60_000,
-        eval_freq=20_000,
-    ),
-    # Lee 2012's circles on HSM2; base: adaptive CCC (the best there). Small authority and a
-    # strong residual penalty: adaptive CCC is within a few encoder counts, and a larger
-    # residual (scale 0.05, full observation: −19 to −25 % on the circles) made the 40 mm
-    # square 14 times worse
-    "hsm2": dict(
-        cases=("hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III"),
-        path_variety=("circles",),
-        circle_radius_m=(0.02, 0.15),
-        observation="errors",
-        residual_penalty=10.0,
-        scale=0.02,
-        base="adaptive-ccc",
-        algo="sac",
-        timesteps=40_000,
-        eval_freq=20_000,
-    ),
+    # stiction and Coulomb friction of the friction table; base: CCC, the best classical
+    # controller on sharp-corner and corner-blend with the margin-checked defaults
+    "friction-table": dict(_RECIPE, plant="friction-table", base="ccc", validation_paths=24),
 }
+
+
+def check_run(run_dir: Path, name: str) -> None:
+    """Refuse a run whose configuration is not the shipped one of ``name`` (or unfinished)."""
+    from agents.rl.config import load_config
+
+    if not (run_dir / "agent.json").is_file():
+        raise SystemExit(f"--from-run: {run_dir} has no agent.json (not a finished run)")
+    got = load_config(run_dir / "config.json").to_dict()
+    want = TrainConfig(**{"seed": 0, **SHIPPED[name]}).to_dict()
+    diff = sorted(k for k in set(got) | set(want) if got.get(k) != want.get(k))
+    if diff:
+        raise SystemExit(f"--from-run: {run_dir} differs from SHIPPED[{name!r}] in {diff}")
 
 
 def install(run_dir: Path, name: str) -> Path:
@@ -102,11 +97,24 @@ def main(argv=None) -> int:
     ap.add_argument("--work", default="out/agents", help="folder for the training runs")
     ap.add_argument("--install", action="store_true", help="copy the models to agents/models")
     ap.add_argument("--no-progress", action="store_true")
+    ap.add_argument(
+        "--from-run",
+        metavar="DIR",
+        help="with --only NAME --install: install a finished run (e.g. a `contour-env train` "
+        "run in the background) instead of training, after checking that its config.json is "
+        "the shipped configuration",
+    )
     args = ap.parse_args(argv)
     names = [n for n in args.only.split(",") if n]
     unknown = [n for n in names if n not in SHIPPED]
     if unknown:
         raise SystemExit(f"--only: unknown {unknown}; known: {', '.join(SHIPPED)}")
+    if args.from_run:
+        if len(names) != 1 or not args.install:
+            raise SystemExit("--from-run: give one agent with --only NAME, and --install")
+        check_run(Path(args.from_run), names[0])
+        print(f"installed {install(Path(args.from_run), names[0])}")
+        return 0
     for name in names:
         out = Path(args.work) / name
         if out.exists():

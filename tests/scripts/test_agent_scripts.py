@@ -39,7 +39,9 @@ def test_install_copies_the_model_files_and_the_copy_is_a_working_agent(
     mod = _script("train_agents")
     monkeypatch.setattr(mod, "MODELS", tmp_path / "models")
     dest = mod.install(tiny_model, "friction-table")
-    assert sorted(p.name for p in dest.iterdir()) == sorted(mod.SHIPPED_FILES)
+    optional = [f for f in mod.OPTIONAL_FILES if (tiny_model / f).is_file()]
+    assert optional == ["validation_curve.json", "validation_curve.png"]
+    assert sorted(p.name for p in dest.iterdir()) == sorted(mod.SHIPPED_FILES + tuple(optional))
     assert not (dest / "checkpoints").exists()
     # the shipped copy gives the same actions as the run folder
     import gymnasium as gym
@@ -116,3 +118,13 @@ def test_ablation_summary_and_table_follow_from_the_cards():
     table = mod.markdown({"plant": "friction-table", "summary": s, "summary_final": s})
     assert "| `path` | 0.80 (0.60–1.00) | 0.95 (0.90–1.00) | 1 of 2 |" in table
     assert "not completed on every part" in table
+
+
+def test_installing_a_run_checks_that_it_is_the_shipped_configuration(tiny_model, tmp_path):
+    mod = _script("train_agents")
+    with pytest.raises(SystemExit, match=r"differs from SHIPPED\['friction-table'\] in \[.*'gate'"):
+        mod.check_run(tiny_model, "friction-table")
+    with pytest.raises(SystemExit, match="not a finished run"):
+        mod.check_run(tmp_path, "friction-table")
+    with pytest.raises(SystemExit, match="--only NAME"):
+        mod.main(["--from-run", str(tiny_model), "--only", "friction-table"])
