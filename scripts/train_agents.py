@@ -6,13 +6,16 @@
 Each agent is one ``contour-env train`` run with the configuration in :data:`SHIPPED` (seed 0,
 one torch thread, this 2-core CPU); the run goes to ``--work/<plant>`` (default
 ``out/agents``) and, with ``--install``, its model files (``model.zip``, ``agent.json``,
-``config.json``, ``normalization.json``, ``learning_curve.json``/``.png``) are copied to
-``agents/models/<plant>/`` — checkpoints, replay buffers and TensorBoard logs are not
-shipped. ``scripts/residual_benchmark.py`` then scores them against their bases.
+``config.json``, ``normalization.json``, and the learning and validation curves where the run
+wrote them) are copied to ``agents/models/<plant>/`` — checkpoints, replay buffers and
+TensorBoard logs are not shipped. ``--from-run DIR`` installs a run made elsewhere (e.g. in the
+background with ``contour-env train``) after checking that its ``config.json`` is the shipped
+configuration. ``scripts/residual_scorecard.py`` then scores them against their bases.
 
-Training is deterministic for the same machine, library versions and thread count (sb3 and
-torch seeded by ``seed``); on another CPU the agent differs in its last digits and the figures
-of the README move a little.
+The shipped recipes stop on a training-time budget and validate every 60 s of training time, so
+a run is reproducible in its configuration, not to the bit: how many steps fit in the budget,
+and so which checkpoints are candidates, depends on the machine's speed at the time (sb3 and
+torch are seeded by ``seed``).
 """
 
 from __future__ import annotations
@@ -31,11 +34,15 @@ SHIPPED_FILES = (
     "agent.json",
     "config.json",
     "normalization.json",
+)
+# shipped too when the run wrote them: the learning curve (runs with training cases, scored on
+# them) and the keep-best record of each checkpoint (runs with a validation set)
+OPTIONAL_FILES = (
     "learning_curve.json",
     "learning_curve.png",
+    "validation_curve.json",
+    "validation_curve.png",
 )
-# shipped too when the run wrote them (validation runs): the keep-best record of each checkpoint
-OPTIONAL_FILES = ("validation_curve.json", "validation_curve.png")
 
 # one entry per shipped agent: TrainConfig keywords (everything else at its default, seed 0
 # unless given). Every agent trains on the path families (agents/rl/families.py) in the path

@@ -40,7 +40,7 @@ def test_install_copies_the_model_files_and_the_copy_is_a_working_agent(
     monkeypatch.setattr(mod, "MODELS", tmp_path / "models")
     dest = mod.install(tiny_model, "friction-table")
     optional = [f for f in mod.OPTIONAL_FILES if (tiny_model / f).is_file()]
-    assert optional == ["validation_curve.json", "validation_curve.png"]
+    assert set(optional) >= {"validation_curve.json", "validation_curve.png"}
     assert sorted(p.name for p in dest.iterdir()) == sorted(mod.SHIPPED_FILES + tuple(optional))
     assert not (dest / "checkpoints").exists()
     # the shipped copy gives the same actions as the run folder
