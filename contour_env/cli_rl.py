@@ -358,8 +358,9 @@ def add_rl_commands(sub) -> None:
         type=int,
         default=None,
         metavar="N",
-        help="generated validation paths; the model with the lowest mean RMS contour error on "
-        "them is kept (default 8; 0: no validation, the final model is kept)",
+        help="generated validation paths; the checkpoint no worse than the base on any of them "
+        "with the lowest mean ratio to the base is kept, else the base (default 16; 0: no "
+        "validation, the final model is kept)",
     )
     p.add_argument(
         "--circle-radius", help="random circle radius range MIN,MAX in m (default 0.005,0.05)"

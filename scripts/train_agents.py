@@ -63,6 +63,15 @@ SHIPPED = {
     # stiction and Coulomb friction of the friction table; base: CCC, the best classical
     # controller on sharp-corner and corner-blend with the margin-checked defaults
     "friction-table": dict(_RECIPE, plant="friction-table", base="ccc", validation_paths=24),
+    # friction and force ripple of the linear motor; base: CCC, the best classical controller
+    # on lm-circle3d, which is also a training source (one episode in two): the issue's
+    # yardstick for this plant is that arc
+    "linear-motor": dict(
+        _RECIPE, cases=("lm-circle3d",), base="ccc", validation_paths=16
+    ),  # fmt: skip
+    # Lee 2012's HSM2; base: adaptive CCC (the best there), within one or two encoder counts
+    # (2 / 1 um) on most parts: a smaller authority (2 % of the torque limit)
+    "hsm2": dict(_RECIPE, plant="hsm2", base="adaptive-ccc", scale=0.02, validation_paths=16),
 }
 
 
