@@ -78,6 +78,8 @@ def config_from_args(args):
     )
     if args.validation_paths is not None:
         kw["validation_paths"] = args.validation_paths
+    if args.keep_min_gain is not None:
+        kw["keep_min_gain"] = args.keep_min_gain
     if args.learning_rate is not None:
         kw["learning_rate"] = args.learning_rate
     if args.learning_rate_final is not None:
@@ -366,6 +368,14 @@ def add_rl_commands(sub) -> None:
         "--circle-radius", help="random circle radius range MIN,MAX in m (default 0.005,0.05)"
     )
     p.add_argument("--net-arch", help="hidden layer sizes, e.g. 64,64 (default)")
+    p.add_argument(
+        "--keep-min-gain",
+        type=float,
+        default=None,
+        metavar="G",
+        help="keep a checkpoint only if its mean ratio to the base on the validation parts is "
+        "<= 1 - G, and no part is worse (default 0.10)",
+    )
     p.add_argument("--learning-rate", type=float, default=None, metavar="LR", help="default 3e-4")
     p.add_argument(
         "--learning-rate-final",

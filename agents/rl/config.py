@@ -106,6 +106,10 @@ class TrainConfig:
     # generated validation paths scored at each evaluation; the model kept is the one with the
     # lowest mean RMS contour error on them (0: no validation, the final model is kept)
     validation_paths: int = 16
+    # a checkpoint is eligible only if its mean ratio to the base on the validation parts is at
+    # most 1 − keep_min_gain (and no part is worse): a checkpoint barely better on average has
+    # no margin on parts it never saw (agents/rl/validation.py)
+    keep_min_gain: float = 0.10
     # learner
     net_arch: tuple = (64, 64)
     learning_rate: float = 3e-4
@@ -236,6 +240,7 @@ class TrainConfig:
             ("randomize_plant", 0.0, 0.99),
             ("randomize_feedrate", 0.0, 0.99),
             ("gamma", 0.0, 1.0),
+            ("keep_min_gain", 0.0, 0.99),
         ):
             _num(self, key, lo, hi, open_low=(key in ("scale",)))
         for key in ("residual_penalty", "w_contour", "w_lag", "w_effort"):
@@ -342,6 +347,8 @@ class TrainConfig:
         data.setdefault("observe_axes", False)
         data.setdefault("fade_at_rest", False)
         data.setdefault("reward_scale", "fixed")
+        # ... and before the minimum gain of keep-best: any eligible checkpoint better on average
+        data.setdefault("keep_min_gain", 0.0)
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:

@@ -79,11 +79,29 @@ def test_validator_ratios_and_judgement():
         def __init__(self):
             self.base_per_path = [10.0, 20.0, math.inf]
 
+            self.min_gain = 0.0
+
     v = V()
     assert v.ratios([5.0, 20.0, math.inf]) == [0.5, 1.0, 1.0]
     assert v.ratios([5.0, math.inf, 3.0]) == [0.5, math.inf, 0.0]
     assert v.judge([5.0, 20.0, math.inf]) == (pytest.approx(2.5 / 3), True)
     assert v.judge([5.0, 21.0, math.inf])[1] is False
+    # a minimum gain on the mean: 0.833 passes 0.10, not 0.20; a part worse is never eligible
+    v.min_gain = 0.10
+    assert v.judge([5.0, 20.0, math.inf]) == (pytest.approx(2.5 / 3), True)
+    v.min_gain = 0.20
+    assert v.judge([5.0, 20.0, math.inf])[1] is False
+    assert v.judge([9.5, 19.0, math.inf]) == (pytest.approx(2.9 / 3), False)
+
+
+def test_old_configurations_keep_any_gain_and_new_ones_ask_ten_percent():
+    new = TrainConfig(**TINY)
+    assert new.keep_min_gain == 0.10
+    d = new.to_dict()
+    del d["keep_min_gain"]
+    assert TrainConfig.from_dict(d).keep_min_gain == 0.0
+    with pytest.raises(ValueError, match="keep_min_gain: must be >= 0.0 and <= 0.99"):
+        TrainConfig(**{**TINY, "keep_min_gain": 1.0})
 
 
 @pytest.fixture(scope="module")
