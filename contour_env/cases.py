@@ -20,10 +20,10 @@ import numpy as np
 from . import DEFAULT_CASE
 from .paths import FeedProfile, PathGeometry, ReferenceTrajectory, circle, polyline
 from .paths.gcode import parse_gcode, read_gcode
+from .paths.gcode_source import is_program_text
 from .plants import FIVE_AXIS_PLANT_ALIASES, Plant
 from .plants.catalog import PLANT_ALIASES, nominal_params
 
-GCODE_SUFFIXES = (".nc", ".gcode", ".ngc", ".tap")
 # the programs shipped with the package (named cases on G-code, examples)
 DATA_DIR = Path(__file__).resolve().parent / "data"
 
@@ -93,8 +93,13 @@ def _per_axis(values) -> str:
 
 def _planner_kwargs(program) -> dict:
     """The feed planner's inputs from a G-code program: its G61/G64 tolerance (m) at the end of
-    each segment and its G04 dwells (s) after each (``FeedProfile.build`` keywords)."""
-    return dict(segment_blend_m=program.segment_blend_m, segment_dwell_s=program.segment_dwell_s)
+    each segment, its G04 dwells (s) after each and the pause before the first segment
+    (``FeedProfile.build`` keywords)."""
+    return dict(
+        segment_blend_m=program.segment_blend_m,
+        segment_dwell_s=program.segment_dwell_s,
+        start_dwell_s=float(program.start_dwell_s),
+    )
 
 
 def case_facts(spec: CaseSpec) -> dict:
@@ -535,10 +540,6 @@ def rapid_steps(path: PathGeometry, segment_is_rapid, arc_length) -> np.ndarray:
     return flags[after] & flags[before]  # ... and, here, to the previous one too
 
 
-def _looks_like_gcode_text(text: str) -> bool:
-    return "\n" in text or any(tok in text.upper() for tok in ("G0", "G1", "G2", "G3"))
-
-
 @lru_cache(maxsize=32)
 def _cached_setup(*args):
     return _make_setup(*args)
@@ -569,7 +570,11 @@ def build_setup(
 
     - ``case``: a named case; ``plant``/``path``/feed arguments override its parts. With no
       case, plant or path: the default case ``contour_env.DEFAULT_CASE`` (hsm2-circle-II).
-    - ``path``: a PathGeometry, G-code text, or a ``.nc``/``.gcode``/``.ngc``/``.tap`` file.
+    - ``path``: a PathGeometry, G-code program text (``"G1 X5 F600"``), or a G-code file (an
+      ``os.PathLike``, or a str naming one; any extension). A str is told apart by
+      :func:`contour_env.paths.gcode_source.is_program_text`: an existing file or a name
+      ending in a usual extension (.nc .ngc .gcode .tap .cnc .txt .mpf .eia .ptp) is a file,
+      a str with a line break or a G0-G3 word is program text, anything else a file name.
     - ``plant``: a plant name or a mapping of custom parameters (see params_from_mapping).
     - ``strict``: a G-code program with Z motion on a 2-axis plant is refused (ValueError
       naming the lines) instead of run with Z taken by an unsimulated axis (default False:
@@ -701,16 +706,12 @@ def _make_setup(
     elif isinstance(path, (str, os.PathLike)):
         text = os.fspath(path)
         try:
-            if (
-                isinstance(path, os.PathLike)
-                or text.lower().endswith(GCODE_SUFFIXES)
-                or (not _looks_like_gcode_text(text))
-            ):
-                program = read_gcode(text, rapid_feed_m_s=rapid_feed)
-                name = case or os.path.basename(text)
-            else:
+            if is_program_text(path):
                 program = parse_gcode(text, rapid_feed_m_s=rapid_feed)
                 name = case or "gcode"
+            else:
+                program = read_gcode(text, rapid_feed_m_s=rapid_feed)
+                name = case or os.path.basename(text)
         except ValueError as exc:
             if "rotary axis" not in str(exc):
                 raise
@@ -722,8 +723,8 @@ def _make_setup(
         geometry = program.path
     else:
         raise ValueError(
-            "path: expected a PathGeometry, G-code text or a G-code file "
-            f"({', '.join(GCODE_SUFFIXES)}), got {type(path).__name__}"
+            "path: expected a PathGeometry, G-code text or a G-code file (a str or "
+            f"os.PathLike), got {type(path).__name__}"
         )
     # a case's true-plant change (a payload) belongs to its own plant, not to another one
     own_plant = spec is not None and (

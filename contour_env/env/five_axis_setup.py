@@ -14,6 +14,7 @@ import numpy as np
 from ..paths.feed import FeedProfile
 from ..paths.five_axis import FiveAxisPath, FiveAxisReference, five_axis_path
 from ..paths.gcode import parse_gcode, read_gcode
+from ..paths.gcode_source import is_program_text
 from ..paths.geometry import PathGeometry
 from ..plants import FIVE_AXIS_PLANT_ALIASES
 from ..plants.five_axis import FiveAxisPlant, forward
@@ -225,12 +226,12 @@ def build_five_axis_setup(
             f"path: expected five-axis G-code text or a G-code file, got {type(path).__name__}"
         )
     text = os.fspath(path)
-    if isinstance(path, os.PathLike) or "\n" not in text and not text.upper().startswith("G"):
-        program = read_gcode(text, five_axis=geom, rapid_feed_m_s=rapid_feed)
-        name = os.path.basename(text)
-    else:
+    if is_program_text(path):  # the same rule as the three-axis plants (paths.gcode_source)
         program = parse_gcode(text, five_axis=geom, rapid_feed_m_s=rapid_feed)
         name = "gcode"
+    else:
+        program = read_gcode(text, five_axis=geom, rapid_feed_m_s=rapid_feed)
+        name = os.path.basename(text)
     if feedrate is not None:
         program = _with_feed(program, feedrate)
     accel = 2.0 if max_accel is None else max_accel

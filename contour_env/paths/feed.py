@@ -103,7 +103,8 @@ class FeedProfile:
     peak_feed, v_out, t_start, t_end, dwell_s).
 
     Fields: ``total_length`` (m), ``sections``, ``duration`` (s, property: to the end of the
-    motion, plus a dwell after the last segment).
+    motion, plus a dwell after the last segment; a start dwell, ``start_dwell_s``, comes first:
+    at rest on s = 0 until it is over).
     """
 
     total_length: float
@@ -125,6 +126,7 @@ class FeedProfile:
         segment_feeds=None,
         segment_blend_m=None,
         segment_dwell_s=None,
+        start_dwell_s=0.0,
     ) -> FeedProfile:
         """Profile for ``path`` at ``feedrate_m_s`` > 0 m/s within ``max_accel_m_s2`` > 0 m/s²
         and ``max_jerk_m_s3`` > 0 m/s³; corners are joints whose tangent jumps by more than
@@ -134,8 +136,10 @@ class FeedProfile:
         ``segment_blend_m``: optional, one path-deviation tolerance per segment (m, ≥ 0) for
         the junction at the END of segment k (G64 P; 0 = exact stop, G61). ``segment_dwell_s``:
         optional, one dwell per segment (s, ≥ 0): the tool stops at the end of segment k and
-        waits that long (G4). With either given, the look-ahead planner runs (class docstring);
-        with both None, the exact-stop profile: a stop at every corner and feed change."""
+        waits that long (G4). ``start_dwell_s`` (s, ≥ 0, default 0): the tool waits that long
+        at rest on the start point before it moves (a G4 before the first move). With either
+        per-segment array given or a start dwell > 0, the look-ahead planner runs (class
+        docstring); otherwise the exact-stop profile: a stop at every corner and feed change."""
         feed = _positive("feedrate_m_s", feedrate_m_s, "m/s")
         a_max = _positive("max_accel_m_s2", max_accel_m_s2, "m/s²")
         j_max = _positive("max_jerk_m_s3", max_jerk_m_s3, "m/s³")
@@ -144,6 +148,11 @@ class FeedProfile:
             raise ValueError(
                 f"corner_tol_rad: must be a finite angle ≥ 0 rad, got {corner_tol_rad!r}"
             )
+        start = start_dwell_s
+        if isinstance(start, bool) or not isinstance(start, (int, float, np.number)):
+            raise ValueError(f"start_dwell_s: must be a finite number ≥ 0 s, got {start!r}")
+        if not (math.isfinite(start) and start >= 0):
+            raise ValueError(f"start_dwell_s: must be a finite number ≥ 0 s, got {start!r}")
         L = path.total_length
         seg_feed = None
         if segment_feeds is not None:
@@ -158,7 +167,7 @@ class FeedProfile:
                 )
             if not np.all(np.isfinite(seg_feed) & (seg_feed > 0)):
                 raise ValueError("segment_feeds: every feed must be a finite number > 0 m/s")
-        if segment_blend_m is not None or segment_dwell_s is not None:
+        if segment_blend_m is not None or segment_dwell_s is not None or start > 0:
             n = path.n_segments
             blend = (
                 None
@@ -171,7 +180,7 @@ class FeedProfile:
                 else planner._per_segment("segment_dwell_s", segment_dwell_s, n, "s")
             )
             feeds = seg_feed if seg_feed is not None else np.full(n, feed)
-            tab = planner.plan(path, feeds, a_max, j_max, tol, blend, dwell)
+            tab = planner.plan(path, feeds, a_max, j_max, tol, blend, dwell, float(start))
             return cls(
                 total_length=L, sections=planner.blocks(tab), _table=np.empty((0, 7)), _plan=tab
             )

@@ -21,47 +21,55 @@ Words that time the path
   without a decimal point -- note that a Fanuc control reads an integer P as milliseconds;
   the note of such a dwell says so) or ``G04 X<seconds>`` (Fanuc). The line must not move
   (no other axis word, no motion code). The dwell is added to ``segment_dwell_s`` of the
-  segment before it (several add up); a dwell before the first move is noted as ignored.
+  segment before it (several add up); a dwell before the first move is a pause at the start
+  point, ``GcodeProgram.start_dwell_s`` (the feed planner starts the motion that much later).
 * ``M00`` / ``M01`` (program / optional stop): an exact stop after the preceding move, no
-  wait. ``M02`` / ``M30`` end the program: lines after them are not read (noted).
+  wait. ``M02`` / ``M30`` end the program: lines after them are not read (noted), neither
+  for motion nor for errors (a Haas ``M99`` after ``M30`` is not a bad line).
 
 Words that are read and reported (``GcodeProgram.notes``), not simulated
 ------------------------------------------------------------------------
-``M`` (spindle M03/M04/M05, tool change M06, coolant M07/M08/M09, any other machine
-function except M97/M98/M99), ``S`` (spindle speed), ``T`` (tool), ``H`` / ``D`` (offset
-numbers), ``O<n>`` alone on a line (program number), lines starting with ``%`` (tape
-markers, the whole line is ignored), a leading ``/`` (block delete: the line is executed),
-``G54``-``G59`` (work offsets, taken as identity), ``G43`` / ``G44 H..`` (tool length offset,
-ignored for contouring), ``G40 G49 G80 G15 G50 G69`` (cancel codes), ``G94`` (feed per
-minute, as assumed), ``G91.1`` (incremental arc centres, as assumed), ``G98`` / ``G99``
-(canned-cycle return level). Each such word gives one `GcodeNote` ``(line, word, action)``,
-in line order; ``GcodeProgram.summary()`` condenses them into one line for the CLI.
+``M`` (spindle M03/M04/M05, tool change M06, coolant M07/M08/M09, any other machine function except
+M97/M98/M99), ``S`` (spindle speed), ``T`` (tool), ``H`` / ``D`` (offset numbers), ``O<n>`` alone on
+a line (program number), lines starting with ``%`` (tape markers, the whole line is ignored), a
+leading ``/`` (block delete: the line is executed), ``G54``-``G59`` (work offsets, taken as
+identity), ``G43`` / ``G44 H..`` (tool length offset, ignored for contouring), ``G40 G49 G80 G15 G50
+G69`` (cancel codes), ``G94`` (feed per minute, as assumed), ``G91.1`` (incremental arc centres, as
+assumed), ``G98`` / ``G99`` (canned-cycle return level), ``G53`` without axis words (``G53 G00 G17``
+of a CAM post: moves nothing; its other words apply). Each such word gives one `GcodeNote` ``(line,
+word, action)``, in line order; ``GcodeProgram.summary()`` condenses them into one line for the CLI.
 
 Features that change the geometry and are not implemented
 ---------------------------------------------------------
-O-word subroutines and control flow (``O100 sub``, ``o<name> call``), ``M97 M98 M99``,
-``#`` parameters and ``[ ]`` expressions, Fanuc macro words (``GOTO``, ``WHILE``, ...),
-cutter compensation ``G41 G42``, canned cycles ``G73 G74 G76 G81``-``G89``, rotation /
-scaling / mirroring ``G68 G51 G51.1``, offsets ``G10 G52 G92``, reference returns ``G28 G30``,
-machine-coordinate moves ``G53``, polar coordinates ``G16``, feed modes ``G93 G95``, absolute
-arc centres ``G90.1``, splines, threading, probing, any other G code, the letters ``A B C U V
-W E L`` and a ``P`` / ``Q`` outside ``G04`` / ``G64``. Also rejected: a word without a number,
-a number that does not parse (numbers are ASCII only: ``[+-]`` digits ``0-9`` with an
-optional ``.``; exponent notation such as ``X1e3`` and non-ASCII digits such as ``X١٠`` or
-full-width ``１０`` are errors), a coordinate beyond ``MAX_COORDINATE_M`` (so every path length
-is finite), two codes of one modal group or two of one letter on one line, an inconsistent
-arc, a feed move before any ``F``, ``F <= 0``, a negative dwell or tolerance, an axis word
-before any motion mode (``G43 H1 Z15.`` as the first move: write ``G0 G43 H1 Z15.``, as posts
-do; ``G80`` does not select a motion mode here).
+O-word subroutines and control flow (``O100 sub``, ``o<name> call``), ``M97 M98 M99``, ``#``
+parameters and ``[ ]`` expressions, Fanuc macro words (``GOTO``, ``WHILE``, ...), cutter
+compensation ``G41 G42``, canned cycles ``G73 G74 G76 G81``-``G89``, rotation / scaling /
+mirroring ``G68 G51 G51.1``, offsets ``G10 G52 G92``, reference returns ``G28 G30``,
+machine-coordinate moves (``G53`` with an axis word), polar coordinates ``G16``, feed modes
+``G93 G95``, absolute arc centres ``G90.1``, splines, threading, probing, any other G code, the
+letters ``A B C U V W E L`` and a ``P`` / ``Q`` outside ``G04`` / ``G64``. Also rejected: a
+word without a number, a number that does not parse (numbers are ASCII only: ``[+-]`` digits
+``0-9`` with an optional ``.``; exponent notation such as ``X1e3`` and non-ASCII digits such as
+``X١٠`` or full-width ``１０`` are errors), a coordinate beyond ``MAX_COORDINATE_M`` (so every
+path length is finite), a feed beyond ``0 < F <= MAX_FEED_M_S`` (100 m/s: 6e6 mm/min, 236220
+inch/min; the error gives the range in the program's units), two codes of one modal group or
+two of one letter on one line, an inconsistent arc, a feed move before any ``F``, ``F <= 0``, a
+negative dwell or tolerance, an axis word before any motion mode (``G43 H1 Z15.`` as the first
+move: write ``G0 G43 H1 Z15.``, as posts do; ``G80`` does not select a motion mode here).
 
 Errors: the reader does not stop at the first bad line. It raises one ``ValueError`` listing
 every bad line, each as ``"G-code line <n>: <what>"`` (``n`` = 1-based line of the text,
-counting blank and comment lines; unsupported features quote the line's text), at most
+counting blank and comment lines; unsupported features and unexpected characters quote the
+line's text as written, comments removed), at most
 `MAX_LISTED_ERRORS` of them plus a count. A single bad line gives just that one
 ``"G-code line <n>: ..."`` message. After the first error the machine position is unknown,
 so later lines are checked only for line-local errors (unsupported words, bad numbers,
 characters, duplicate words); errors that depend on the position (arcs, feeds) are listed
 only up to the first error.
+
+Files: `read_gcode` reads a file whatever its extension (``.nc .ngc .gcode .tap .cnc .txt .mpf
+.eia .ptp`` or none, `COMMON_EXTENSIONS` are the usual ones) and refuses by content: a file
+with NUL bytes is not a program, a text that is not G-code gets the error listing its lines.
 
 Text: UTF-8, a leading byte-order mark is dropped; LF, CRLF and CR-only line endings are
 accepted (`read_gcode` decodes bytes as UTF-8, replacing bytes that are not). Letters may be
@@ -113,21 +121,20 @@ Conventions
 
 Two-axis machines: `GcodeProgram.planar_xy`
 -------------------------------------------
-``program.planar_xy()`` returns the program as an XY machine follows it while an
-unsimulated Z axis does the rest: every point gets z = 0, and each segment keeps its
-duration (length / feed) on the real machine. A Z-only move becomes a pause of that
-duration, added to ``segment_dwell_s`` of the XY segment before it (noted as ignored
-before any XY move); a line with XY and Z motion becomes its XY projection with the feed
-scaled by (XY length / length); a ``G17`` helix becomes its XY arc (same centre, radius and
-sweep) with the feed scaled by r / sqrt(r^2 + pitch^2); a ``G18``/``G19`` arc projects onto
-the XY plane as a straight stroke that reverses at the arc's extremes: it becomes exact
-lines split at the reversal points (exact stops there), each at its average speed; a
-``G18``/``G19`` helix projects onto a sine-like curve that is approximated by chords within
-`PLANAR_CHORD_TOL_M` (1 um) and noted so (the junctions between those chords blend within
-max(G64 tolerance, 1 um) even under G61: they lie inside one block). Each changed line gives a
-note starting
-``"Z motion taken by an unsimulated axis: "``. ``planar_xy(strict=True)`` raises instead,
-naming every line with Z motion. A program whose path is already 2-D is returned as is.
+``program.planar_xy()`` returns the program as an XY machine follows it while an unsimulated Z axis
+does the rest: every point gets z = 0, and each segment keeps its duration (length / feed) on the
+real machine. A Z-only move becomes a pause of that duration, added to ``segment_dwell_s`` of the XY
+segment before it (before the first XY move: to ``start_dwell_s``, a pause at the start, like a
+dwell there); a line with XY and Z motion becomes its XY projection with the feed scaled by (XY
+length / length); a ``G17`` helix becomes its XY arc (same centre, radius and sweep) with the feed
+scaled by r / sqrt(r^2 + pitch^2); a ``G18``/``G19`` arc projects onto the XY plane as a straight
+stroke that reverses at the arc's extremes: it becomes exact lines split at the reversal points
+(exact stops there), each at its average speed; a ``G18``/``G19`` helix projects onto a sine-like
+curve that is approximated by chords within `PLANAR_CHORD_TOL_M` (1 um) and noted so (the junctions
+between those chords blend within max(G64 tolerance, 1 um) even under G61: they lie inside one
+block). Each changed line gives a note starting ``"Z motion taken by an unsimulated axis: "``.
+``planar_xy(strict=True)`` raises instead, naming every line with Z motion. A program whose path is
+already 2-D is returned as is.
 """
 
 from __future__ import annotations
@@ -142,21 +149,25 @@ from typing import Any, NamedTuple
 import numpy as np
 
 __all__ = [
-    "ALLOWED_EXTENSIONS",
+    "COMMON_EXTENSIONS",
     "DEFAULT_G64_TOLERANCE_M",
     "GcodeNote",
     "GcodeProgram",
     "MAX_COORDINATE_M",
+    "MAX_FEED_M_S",
     "parse_gcode",
     "read_gcode",
 ]
 
 MM_M = 1e-3
 INCH_M = 0.0254
-ALLOWED_EXTENSIONS = (".nc", ".gcode", ".ngc", ".tap")
+# what part programs are usually called; `read_gcode` reads a file whatever its name (as
+# senders such as UGS and bCNC do) and refuses by content
+COMMON_EXTENSIONS = (".nc", ".ngc", ".gcode", ".tap", ".cnc", ".txt", ".mpf", ".eia", ".ptp")
 SUPPORTED_WORDS = (
     "G00 G01 G02 G03 G04 G09 G17 G18 G19 G20 G21 G61 G61.1 G64 G90 G91 X Y Z I J K R F P N; "
-    "reported: M S T H D O G40 G43 G44 G49 G54-G59 G80 G94 G91.1 G98 G99 G15 G50 G69"
+    "reported: M S T H D O G40 G43 G44 G49 G53 (no axis words) G54-G59 G80 G94 G91.1 G98 G99 "
+    "G15 G50 G69"
 )
 ARC_ABS_TOL_M = 5e-6
 ARC_REL_TOL = 1e-4
@@ -164,6 +175,9 @@ FULL_CIRCLE_TOL_M = 1e-9
 ZERO_LENGTH_TOL_M = 1e-12
 DEFAULT_G64_TOLERANCE_M = 1e-5  # G64 without P: 0.01 mm (grbl's default junction deviation)
 MAX_COORDINATE_M = 1e3  # |coordinate| limit: keeps every length finite (no machine is 1 km)
+# F limit: 100 m/s (6e6 mm/min), far above any feed drive (the fastest run a few m/s); keeps
+# every time and distance of the feed planner finite
+MAX_FEED_M_S = 100.0
 MAX_LISTED_ERRORS = 50
 PLANAR_CHORD_TOL_M = 1e-6  # chord error of a projected G18/G19 helix in planar_xy
 
@@ -178,6 +192,7 @@ _G_GROUPS = {
     2.0: "motion",
     3.0: "motion",
     4.0: "non-modal",
+    53.0: "non-modal",  # machine coordinates: read only without axis words (moves nothing)
     9.0: "exact stop",
     17.0: "plane",
     18.0: "plane",
@@ -224,6 +239,7 @@ _G_NOTED = {
 }
 for _c in range(54, 60):
     _G_NOTED[float(_c)] = f"work offset G{_c} taken as identity"
+_G_NOTED[53.0] = "ignored: machine coordinates without axis words (moves nothing)"
 _G_UNSUPPORTED = {
     41.0: "cutter radius compensation",
     42.0: "cutter radius compensation",
@@ -371,8 +387,10 @@ class GcodeProgram:
     Per segment k (numpy arrays, one entry per segment): ``segment_is_rapid`` (bool),
     ``segment_lines`` (1-based source line), ``segment_blend_m`` (G64 path tolerance in m at
     the junction after segment k, 0.0 = exact stop there; the last segment ends in a stop),
-    ``segment_dwell_s`` (pause in s after segment k, >= 0). ``notes``: list of `GcodeNote`
-    for the words read but not simulated as written (see the module docstring);
+    ``segment_dwell_s`` (pause in s after segment k, >= 0). ``start_dwell_s``: the pause (s,
+    >= 0) at the start point before the first segment (dwells before the first move; in
+    `planar_xy` also the Z-only moves before the first XY move). ``notes``: list of
+    `GcodeNote` for the words read but not simulated as written (see the module docstring);
     ``summary()`` condenses them.
     """
 
@@ -387,6 +405,7 @@ class GcodeProgram:
     segment_blend_m: np.ndarray | None = None
     segment_dwell_s: np.ndarray | None = None
     notes: list = field(default_factory=list)
+    start_dwell_s: float = 0.0
 
     def __post_init__(self):
         n = len(self.segments)
@@ -431,7 +450,7 @@ class GcodeProgram:
             parts.append(f"{n_dwell} dwell{'s' * (n_dwell != 1)}")
         if n_z:
             parts.append(f"{n_z} line{'s' * (n_z != 1)} with Z motion taken by an unsimulated axis")
-        pause = float(np.sum(self.segment_dwell_s))
+        pause = float(np.sum(self.segment_dwell_s)) + float(self.start_dwell_s)
         if pause > 0:
             parts.append(f"pauses {pause:.3g} s in all")
         if not any(m.startswith(("G61", "G64")) for m in modes):
@@ -469,6 +488,14 @@ class GcodeProgram:
             )
         segs, feeds, rapid, lines, blend, dwell = [], [], [], [], [], []
         notes: list[GcodeNote] = []
+        start = [float(self.start_dwell_s)]  # the pause before the first XY segment
+
+        def wait(t):
+            if segs:
+                dwell[-1] += t
+                blend[-1] = 0.0
+            else:
+                start[0] += t
 
         def add(seg, feed, k, b):
             segs.append(seg)
@@ -480,16 +507,13 @@ class GcodeProgram:
 
         def pause(t, k, word):
             ln = int(self.segment_lines[k])
-            if segs:
-                dwell[-1] += t
-                blend[-1] = 0.0
-                notes.append(
-                    GcodeNote(ln, word, f"Z motion taken by an unsimulated axis: pause {_fmt_s(t)}")
+            where = "" if segs else " before the first XY move"
+            wait(t)
+            notes.append(
+                GcodeNote(
+                    ln, word, f"Z motion taken by an unsimulated axis: pause {_fmt_s(t)}{where}"
                 )
-            else:
-                notes.append(
-                    GcodeNote(ln, word, f"ignored: Z motion before any XY motion ({_fmt_s(t)})")
-                )
+            )
 
         for k, s in enumerate(self.segments):
             f = float(self.segment_feeds_m_s[k])
@@ -538,9 +562,7 @@ class GcodeProgram:
                     t = abs(dth) * dur_per_rad
                     L = math.hypot(q1[0] - q0[0], q1[1] - q0[1])
                     if L <= ZERO_LENGTH_TOL_M:
-                        if segs:
-                            dwell[-1] += t
-                            blend[-1] = 0.0
+                        wait(t)
                         continue
                     # chord junctions inside one block blend whatever the mode (G61 included)
                     inner = max(b, PLANAR_CHORD_TOL_M)
@@ -561,9 +583,8 @@ class GcodeProgram:
                     )
                 )
                 notes.append(GcodeNote(ln, word, f"Z motion taken by an unsimulated axis: {kind}"))
-            if segs and self.segment_dwell_s[k] > 0:
-                dwell[-1] += float(self.segment_dwell_s[k])
-                blend[-1] = 0.0
+            if self.segment_dwell_s[k] > 0:
+                wait(float(self.segment_dwell_s[k]))
         if not segs:
             raise ValueError(f"G-code program has no XY motion; planar_xy needs some{where}")
         blend[-1] = 0.0
@@ -584,6 +605,7 @@ class GcodeProgram:
             segment_blend_m=np.asarray(blend, dtype=float),
             segment_dwell_s=np.asarray(dwell, dtype=float),
             notes=all_notes,
+            start_dwell_s=start[0],
         )
 
 
@@ -703,7 +725,12 @@ class _Parser:
             )
         if not ("A" <= s[0] <= "Z" or "a" <= s[0] <= "z"):
             ch = s[0]
-            raise self.error(lineno, f"unexpected character {ch!r} (U+{ord(ch):04X}) in {s[:40]!r}")
+            written = code.strip()
+            if len(written) > 40:
+                written = written[:37] + "..."
+            raise self.error(
+                lineno, f"unexpected character {ch!r} (U+{ord(ch):04X}) in {written!r}"
+            )
         words: list[_Word] = []
         unsupported: list[str] = []
         for tok in _TOKEN.finditer(s):
@@ -768,7 +795,16 @@ class _Parser:
                         f"{values[w.letter].text!r})",
                     )
                 values[w.letter] = w
-        dwell = gcodes.get("non-modal", (None,))[0] == 4.0
+        non_modal = gcodes.get("non-modal", (None, ""))
+        if non_modal[0] == 53.0:
+            axes = "XYZIJKR" + self.rotary_letters
+            if any(w.letter in axes for w in words):
+                raise self.error(
+                    lineno,
+                    f"unsupported word {non_modal[1]!r} ({_G_UNSUPPORTED[53.0]}) with axis words: "
+                    f"not implemented, in {shown!r}",
+                )
+        dwell = non_modal[0] == 4.0
         g64 = gcodes.get("path mode", (None,))[0] == 64.0
         if "P" in values and not (dwell or g64):
             raise self.error(
@@ -811,6 +847,7 @@ class _Parser:
         self.moves: list = []
         self.move_blend: list[float] = []
         self.move_dwell: list[float] = []
+        self.start_dwell = 0.0  # s: dwells before the first move
 
         if text.startswith("\ufeff"):
             text = text[1:]
@@ -829,8 +866,14 @@ class _Parser:
             except _LineError as e:
                 self.errors.append(str(e))
                 continue
-            if lexed is None or self.errors:
-                continue  # after an error the position is unknown: line-local checks only
+            if lexed is None:
+                continue
+            if self.errors:
+                # after an error the position is unknown: line-local checks only, up to the
+                # program end (a control stops reading there; what follows is not checked)
+                if any(w.letter == "M" and w.value in (2.0, 30.0) for w in lexed[0]):
+                    break
+                continue
             try:
                 ended = self.execute(lineno, *lexed)
             except _LineError as e:
@@ -878,8 +921,14 @@ class _Parser:
             self.unit, self.units_name = (INCH_M, "inch") if inch else (MM_M, "mm")
         if "F" in values:
             fw = values["F"]
-            if not fw.value > 0:
-                raise self.error(lineno, f"feed rate must be > 0, got {fw.text!r}")
+            if not 0 < fw.value * unit / 60.0 <= MAX_FEED_M_S:
+                lim = MAX_FEED_M_S * 60.0 / unit
+                name = "inch" if unit == INCH_M else "mm"
+                raise self.error(
+                    lineno,
+                    f"feed rate must be > 0 and <= {lim:.6g} {name}/min ({MAX_FEED_M_S:g} m/s), "
+                    f"got {_short(fw.text)!r}",
+                )
             self.feed = fw.value * unit / 60.0
             self.feeds_seen.append(self.feed)
         if "distance" in gcodes:
@@ -949,14 +998,15 @@ class _Parser:
             raise self.error(lineno, f"dwell time must be >= 0 s, got {tw.text!r}")
         t = tw.value
         word = f"{gt} {tw.text}"
-        if not self.moves:
-            self.note(lineno, word, f"ignored: dwell {t:g} s before any motion (no motion yet)")
-            return
-        self.move_dwell[-1] += t
-        self.move_blend[-1] = 0.0
         hint = ""
         if tw.letter == "P" and "." not in tw.text:
             hint = f" (P in seconds, RS274/NGC; a Fanuc control reads {tw.text} as ms)"
+        if not self.moves:
+            self.start_dwell += t  # a pause at the start point
+            self.note(lineno, word, f"dwell {t:g} s before the first move{hint}")
+            return
+        self.move_dwell[-1] += t
+        self.move_blend[-1] = 0.0
         self.note(lineno, word, f"dwell {t:g} s{hint}")
 
     def move(self, lineno, values, motion_text, exact_here) -> None:
@@ -1219,31 +1269,38 @@ def parse_gcode(
         segment_blend_m=blend,
         segment_dwell_s=np.asarray(parser.move_dwell, dtype=float),
         notes=parser.notes,
+        start_dwell_s=float(parser.start_dwell),
     )
 
 
 def read_gcode(path_or_file, **kw) -> GcodeProgram:
-    """Read a G-code file (``.nc``, ``.gcode``, ``.ngc``, ``.tap``) or an open file object.
+    """Read a G-code file (a path, whatever its extension: ``.nc .ngc .gcode .tap .cnc .txt
+    .mpf .eia .ptp`` or none) or an open file object.
 
-    Keyword arguments go to `parse_gcode`; ``source`` defaults to the file's path. The
-    extension is checked only for paths (case-insensitive); file objects are read as they are.
-    Bytes are decoded as UTF-8 (a byte-order mark is dropped; bytes that are not UTF-8 are
-    replaced, which matters only inside comments).
+    Keyword arguments go to `parse_gcode`; ``source`` defaults to the file's path. A file is
+    refused by its content, not its name: a missing path raises ``FileNotFoundError``, a
+    folder or a file with NUL bytes (binary, UTF-16) ``ValueError``, a text that is not
+    G-code the reader's ``ValueError`` naming its bad lines. Bytes are decoded as UTF-8 (a
+    byte-order mark is dropped; bytes that are not UTF-8 are replaced, which matters only
+    inside comments).
     """
     if hasattr(path_or_file, "read"):
         data = path_or_file.read()
         kw.setdefault("source", str(getattr(path_or_file, "name", "<file>")))
     else:
         p = Path(os.fspath(path_or_file))
-        if p.suffix.lower() not in ALLOWED_EXTENSIONS:
-            raise ValueError(
-                f"G-code file {str(p)!r} has extension {p.suffix!r}; "
-                f"allowed: {' '.join(ALLOWED_EXTENSIONS)}"
-            )
+        if p.is_dir():
+            raise ValueError(f"G-code file {str(p)!r} is a directory, not a program")
         if not p.is_file():
             raise FileNotFoundError(f"G-code file not found: {str(p)!r}")
         data = p.read_bytes()
         kw.setdefault("source", str(p))
+    nul = data.find(b"\0" if isinstance(data, bytes) else "\0")
+    if nul >= 0:
+        raise ValueError(
+            f"G-code file {kw['source']!r} is not a text file (a NUL byte at offset {nul}); "
+            "a program is UTF-8 or ASCII text"
+        )
     if isinstance(data, bytes):
         data = data.decode("utf-8-sig", errors="replace")
     return parse_gcode(data, **kw)

@@ -140,8 +140,12 @@ def plan(
     corner_tol_rad: float,
     blend_m,
     dwell_s,
+    start_dwell_s: float = 0.0,
 ) -> np.ndarray:
     """The planned table (one row per block; columns T0 … TEND above).
+
+    ``start_dwell_s`` (s, ≥ 0): a pause at rest on the start point before the first block (a
+    G04 before the first move); every time in the table is later by that much.
 
     ``seg_feed`` (n,) m/s; ``blend_m`` (n,) m or None (then every corner sharper than
     ``corner_tol_rad`` is an exact stop); ``dwell_s`` (n,) s or None. A junction is an
@@ -236,7 +240,7 @@ def plan(
         tc = np.where(vp > 0, (length - d1 - d2) / vp, 0.0)
     tc = np.maximum(tc, 0.0)
     move = ta1 + tc + ta2
-    t0 = np.concatenate([[0.0], np.cumsum(move + dwell)[:-1]])
+    t0 = start_dwell_s + np.concatenate([[0.0], np.cumsum(move + dwell)[:-1]])
     tab = np.empty((m, 11))
     tab[:, T0] = t0
     tab[:, S0] = s_bound[:-1]

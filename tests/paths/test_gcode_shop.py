@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from contour_env.paths.gcode import (
+    COMMON_EXTENSIONS,
     DEFAULT_G64_TOLERANCE_M,
     GcodeNote,
     GcodeProgram,
@@ -111,11 +112,50 @@ EXPECTED_NOTES = {
         "M0",
         "M30",
     ],
+    # written for issue 36: a CAM post's G53 line without axis words, text after M30 (a Haas
+    # M99), a dwell and Z-only moves before the first XY move, a .cnc and a .txt file
+    "cam_post_g53.nc": [
+        "%",
+        "O2001",
+        "G80",
+        "G40",
+        "G49",
+        "G53",
+        "T1",
+        "M6",
+        "G54",
+        "S10000",
+        "M3",
+        "G43",
+        "H1",
+        "M5",
+        "M30",
+    ],
+    "haas_after_m30.nc": [
+        "O00036",
+        "G40",
+        "G49",
+        "G80",
+        "T2",
+        "M06",
+        "G54",
+        "S5000",
+        "M03",
+        "G43",
+        "H02",
+        "M08",
+        "M09",
+        "M05",
+        "M30",
+    ],
+    "dwell_first.ngc": ["G64", "G4 P1.5", "G4 P0.5", "M2"],
+    "router_job.cnc": ["M3", "S18000", "M5", "M30"],
+    "shapeoko_outline.txt": ["M2"],
 }
 
 
 def corpus_files():
-    return sorted(p for p in CORPUS.iterdir() if p.suffix in (".nc", ".gcode", ".ngc", ".tap"))
+    return sorted(p for p in CORPUS.iterdir() if p.suffix.lower() in COMMON_EXTENSIONS)
 
 
 def seg_end(s):
@@ -331,7 +371,9 @@ G1 Y30          (9: last segment ends in a stop)
 
 def test_dwell_conventions_and_errors():
     prog = parse_gcode("G4 P2\nG1 X1 F60\nG4 P3\n")
-    assert prog.notes[0].action.startswith("ignored: dwell 2 s before any motion")
+    # a dwell before the first move is a pause at the start point (issue 36 item 3)
+    assert prog.notes[0].action.startswith("dwell 2 s before the first move")
+    assert prog.start_dwell_s == 2.0
     assert prog.segment_dwell_s.tolist() == [3.0]
     assert "a Fanuc control reads P3 as ms" in prog.notes[1].action
     for text, pattern in [
@@ -514,13 +556,16 @@ def test_planar_xy_z_only_move_becomes_a_dwell():
         prog.planar_xy(strict=True)
 
 
-def test_planar_xy_z_before_any_xy_motion_is_noted():
+def test_planar_xy_z_before_any_xy_motion_is_a_pause_at_the_start():
+    # G0 Z10 at the rapid feed (the highest F, 600 mm/min): 1 s; Z10 -> Z2 at 120 mm/min: 4 s
     flat = parse_gcode("G0 Z10\nG1 Z2 F120\nX10 F600\n").planar_xy()
     assert len(flat.segments) == 1 and flat.segment_dwell_s.tolist() == [0.0]
+    assert flat.start_dwell_s == pytest.approx(5.0, rel=1e-12)
     assert [n.action for n in flat.notes][:2] == [
-        "ignored: Z motion before any XY motion (1 s)",
-        "ignored: Z motion before any XY motion (4 s)",
+        "Z motion taken by an unsimulated axis: pause 1 s before the first XY move",
+        "Z motion taken by an unsimulated axis: pause 4 s before the first XY move",
     ]
+    assert "pauses 5 s in all" in flat.summary()
 
 
 def test_planar_xy_sloped_line_keeps_its_duration():

@@ -1,0 +1,21 @@
+%
+O00036 (HAAS STYLE: A SUBPROGRAM RETURN AND TEXT AFTER M30)
+(written for the contour_env tests)
+G20
+G00 G17 G40 G49 G80 G90
+T2 M06
+G00 G54 X-1. Y-1. S5000 M03
+G43 H02 Z0.5 M08
+G01 Z0.1 F20.
+X1. F40.
+Y1.
+X-1.
+Y-1.
+G00 Z0.5 M09
+M05
+M30
+M99
+(after the program end: never read)
+G1 X50
+N100 G65 P9000
+%
