@@ -38,6 +38,12 @@ def markdown(cards: list[dict]) -> str:
     ]
     for c in cards:
         who = f"`{c['model']}` ({c['base']}{', kept: base' if c['kept'] == 'base' else ''})"
+        if c["kept"] == "base" and all(r["rms_ratio"] == 1.0 for r in c["rows"]):
+            lines.append(
+                f"| {who} | every one of its {len(c['rows'])} targets: no checkpoint passed "
+                f"keep-best, the agent is its base | | | **1.000** |"
+            )
+            continue
         for r in c["rows"]:
             tgt = f"`{r['target']}`" + (" (case)" if r["kind"] == "case" else "")
             lines.append(
