@@ -17,7 +17,12 @@ def _add_target_args(p: argparse.ArgumentParser) -> None:
         "--plant",
         help="plant name, with --gcode (hsm2, jee-triaxial, linear-motor, friction-table)",
     )
-    p.add_argument("--gcode", help="G-code file (.nc/.gcode/.ngc/.tap) to follow, with --plant")
+    p.add_argument(
+        "--gcode",
+        metavar="FILE",
+        help="G-code file to follow, with --plant (any extension: .nc .ngc .gcode .tap .cnc "
+        ".txt ...; always a file name, never program text)",
+    )
     p.add_argument(
         "--feedrate",
         type=float,
@@ -44,6 +49,16 @@ def _add_target_args(p: argparse.ArgumentParser) -> None:
     )
 
 
+def gcode_file(value: str) -> str:
+    """``--gcode VALUE``: a file, always (program text belongs to the Python API); SystemExit
+    with one line naming the option when there is no such file."""
+    if not os.path.exists(value):
+        raise SystemExit(f"error: --gcode: no such file: {value}")
+    if not os.path.isfile(value):
+        raise SystemExit(f"error: --gcode: not a file: {value}")
+    return value
+
+
 def _target_kwargs(args) -> dict:
     if args.case and args.gcode:
         raise SystemExit("error: give --case, or --plant with --gcode, not both")
@@ -55,7 +70,9 @@ def _target_kwargs(args) -> dict:
         raise SystemExit("error: --plant needs --gcode (or use --case)")
     kw = {"ideal": args.ideal}
     if args.gcode:
-        kw.update(plant=args.plant, path=args.gcode)
+        # an existing file is read as a file by build_setup whatever its name
+        # (contour_env.paths.gcode_source)
+        kw.update(plant=args.plant, path=gcode_file(args.gcode))
     else:
         kw["case"] = args.case or DEFAULT_CASE
         if args.plant:
@@ -202,18 +219,15 @@ def cmd_run(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from agents.compare import check_controllers, compare, format_table, robustness
+    from agents.compare import compare, format_table, robustness
 
+    from .cli_checks import check_compare_options
     from .io import atomic_write_json
-    from .metrics import check_metrics
 
+    # every option first, all bad ones named in one error, before anything runs
+    check_compare_options(args)
     # rows are names or variants (ccc:wp=3e4:wd=20); each row is labelled as typed
     names = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    check_controllers(names)
-    if args.model is not None and "residual" not in names:
-        raise ValueError(
-            "model: --model DIR is the agent of the 'residual' row; add residual to --controllers"
-        )
     kw = _target_kwargs(args)
 
     def show(name, row):
@@ -236,7 +250,6 @@ def cmd_compare(args) -> int:
                 )
 
     metrics = tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
-    check_metrics(metrics)
     _print_program_summary(kw)
     result = compare(names, seed=args.seed, progress=show, model=args.model, metrics=metrics, **kw)
     robust = None

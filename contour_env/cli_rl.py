@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from .cli import _add_target_args, _print_metrics, _target_kwargs
+from .cli import _add_target_args, _print_metrics, _target_kwargs, gcode_file
 
 ALGOS = ("sac", "td3", "ppo")
 
@@ -39,6 +39,7 @@ def config_from_args(args):
         raise ValueError(
             "--gcode: needs --plant (hsm2, jee-triaxial, linear-motor, friction-table)"
         )
+    gcode = [gcode_file(f) for f in gcode]  # files, always
     variety = tuple(v.strip() for v in (args.paths or "").split(",") if v.strip())
     bad = [v for v in variety if v not in PATH_VARIETY]
     if bad:
