@@ -20,7 +20,7 @@ DEFAULT_CASE = "hsm2-circle-II"
 if ENV_ID not in registry:
     register(
         id=ENV_ID,
-        entry_point="contour_env.env.contouring_env:ContouringEnv",
+        entry_point="contour_env.env.contouring_env:make_contouring_env",
         vector_entry_point="contour_env.env.vector_env:ContouringVectorEnv",
         disable_env_checker=False,
     )

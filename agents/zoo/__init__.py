@@ -64,7 +64,7 @@ WRAPPER_NAME = "agents.zoo.residual_wrapper"
 if RESIDUAL_ENV_ID not in registry:
     register(
         id=RESIDUAL_ENV_ID,
-        entry_point="contour_env.env.contouring_env:ContouringEnv",
+        entry_point="contour_env.env.contouring_env:make_contouring_env",
         disable_env_checker=False,
     )
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 
-from .core import EnvConfig, EnvCore, make_core
+from .core import EnvConfig, EnvCore, check_seed, make_core
 
 
 class ContouringEnv(gym.Env):
@@ -105,6 +106,8 @@ class ContouringEnv(gym.Env):
       (the reason is ``info["termination_reason"]``). The step's reward is −P · (n_steps − k),
       see Rewards.
     - truncated: the path and the settle time are done (k = n_steps − 1).
+    - after either, ``step`` raises ``gymnasium.error.ResetNeeded`` until ``reset`` is called
+      (also on the unwrapped env: an ended episode neither advances time nor pays rewards).
 
     ## Info (every step, physical units)
 
@@ -119,8 +122,11 @@ class ContouringEnv(gym.Env):
 
     case : str — a named case (``contour-env cases``); its plant/path/feed are defaults.
     plant : str or mapping — a named plant or custom parameters (with ``path``).
-    path : PathGeometry, G-code text or a ``.nc``/``.gcode`` file (G-code is read in its own
-        units and converted to metres; setup words are reported in
+    path : PathGeometry, G-code program text or a G-code file: a ``pathlib.Path``, or a str
+        that names an existing file or ends in a usual extension (.nc .ngc .gcode .tap .cnc
+        .txt .mpf .eia .ptp); a str with a line break or a G0–G3 word is program text
+        (``path="G1 X5 F600"``), see :mod:`contour_env.paths.gcode_source`. (G-code is read in
+        its own units and converted to metres; setup words are reported in
         ``env.unwrapped.setup.program_summary``; G61/G64 and G04 drive the look-ahead feed
         planner, see docs/FEED_PLANNER.md).
     strict : bool — refuse a G-code program with Z motion on a 2-axis plant (default False: Z
@@ -148,7 +154,11 @@ class ContouringEnv(gym.Env):
         its time offset per axis, uniform over one period, from the episode seed (the same
         seed repeats it; the trials of a repeated batch, seeded anew, see a disturbance that
         iterative learning cannot learn).
-    render_mode : None or ``"rgb_array"``.
+    render_mode : None or one of ``metadata["render_modes"]`` (``"rgb_array"``); any other
+        (``"human"`` too) raises ``ValueError``.
+
+    Any other argument raises ``ValueError`` naming it and listing the known ones. ``reset``
+    takes a ``seed`` in numpy's range 0 … 2**64 − 1 (``ValueError`` otherwise).
 
     Random elements (noise, random disturbance) are drawn from a counter-based generator keyed
     by the episode seed: ``reset(seed=s)`` gives a bit-identical episode every time.
@@ -157,8 +167,12 @@ class ContouringEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(self, case=None, plant=None, path=None, *, render_mode=None, **kwargs):
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode: must be None or 'rgb_array', got {render_mode!r}")
+        modes = self.metadata["render_modes"]
+        if render_mode is not None and render_mode not in modes:
+            raise ValueError(
+                f"render_mode: must be None or one of the env's render modes "
+                f"({', '.join(map(repr, modes))}), got {render_mode!r}"
+            )
         self.core: EnvCore = make_core(case, plant, path, n_envs=1, **kwargs)
         self.render_mode = render_mode
         n = self.core.dim
@@ -190,6 +204,8 @@ class ContouringEnv(gym.Env):
         return self.core.signals(0)
 
     def reset(self, *, seed=None, options=None):
+        if seed is not None:
+            seed = check_seed(seed)
         super().reset(seed=seed)
         noise_seed = seed if seed is not None else int(self.np_random.integers(0, 2**63))
         self.core.reset_env(0, int(noise_seed))
@@ -199,6 +215,12 @@ class ContouringEnv(gym.Env):
         return self.core.obs[0].copy(), self.core.info(0)
 
     def step(self, action):
+        if self.core.terminated[0] or self.core.truncated[0]:
+            reason = self.core.info(0)["termination_reason"] or "truncated: the path is done"
+            raise ResetNeeded(
+                f"step: the episode has ended ({reason}, step {int(self.core.k[0])}); call "
+                "reset() before stepping again"
+            )
         a = np.asarray(action)
         if a.dtype.kind not in "fiu":
             # complex (its imaginary part would be dropped), bool, text, objects: no command
@@ -236,3 +258,11 @@ class ContouringEnv(gym.Env):
         from .render import render_rgb
 
         return render_rgb(self.core, self._history)
+
+
+def make_contouring_env(**kwargs) -> ContouringEnv:
+    """The entry point of ``contour_env/Contouring-v0``: a function, not the class, so that
+    ``gym.make`` hands ``render_mode`` to the env as given (with the class it would wrap a
+    ``"human"`` request in HumanRendering with only a warning) and the env refuses the modes
+    it does not have."""
+    return ContouringEnv(**kwargs)

@@ -740,6 +740,54 @@ def signals_to_batch(signals: dict) -> dict:
     return out
 
 
+# the arguments of gym.make / make_vec besides EnvConfig's fields (ContouringEnv, "Arguments")
+ENV_ARGUMENTS = (
+    "case",
+    "plant",
+    "path",
+    "feedrate_m_s",
+    "max_accel_m_s2",
+    "max_jerk_m_s3",
+    "settle_time_s",
+    "ideal",
+    "structural_mode",
+    "plant_params",
+    "strict",
+    "rapid_feed_m_s",
+    "num_threads",
+    "render_mode",
+)
+# the largest episode seed: numpy's seeds are 0 ... 2**64 - 1 (the counter-based noise key)
+MAX_SEED = 2**64 - 1
+
+
+def check_env_arguments(config: dict) -> None:
+    """ValueError naming every argument of ``config`` that neither the env nor `EnvConfig`
+    has, and listing the known ones (instead of a TypeError from deep inside)."""
+    fields = EnvConfig.__dataclass_fields__
+    unknown = [k for k in config if k not in fields]
+    if unknown:
+        names = ", ".join(repr(k) for k in unknown)
+        known = ", ".join((*ENV_ARGUMENTS, *fields))
+        raise ValueError(
+            f"unknown argument{'s' * (len(unknown) > 1)} {names}; the env's arguments are: {known}"
+        )
+
+
+def check_seed(seed, name: str = "seed") -> int:
+    """``seed`` as an int in numpy's seed range 0 ... 2**64 - 1; ValueError naming ``name``
+    otherwise (a larger seed would be reduced modulo 2**64 and repeat another episode)."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"{name}: expected None or an integer in [0, 2**64 - 1], got {seed!r}")
+    seed = int(seed)
+    if not 0 <= seed <= MAX_SEED:
+        raise ValueError(
+            f"{name}: must be in [0, 2**64 - 1] (numpy's seed range), got {seed} "
+            f"({'negative' if seed < 0 else f'about 2**{seed.bit_length() - 1}'})"
+        )
+    return seed
+
+
 def make_core(
     case=None,
     plant=None,
@@ -759,6 +807,7 @@ def make_core(
     **config,
 ) -> EnvCore:
     # num_threads: the step's thread policy (None / "auto": adaptive; see StepThreads)
+    check_env_arguments(config)
     setup = build_setup(
         case,
         plant,

@@ -17,7 +17,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from .core import EnvCore, make_core
+from .core import MAX_SEED, EnvCore, check_seed, make_core
 
 
 class ContouringVectorEnv(VectorEnv):
@@ -52,8 +52,13 @@ class ContouringVectorEnv(VectorEnv):
     def reset(self, *, seed=None, options=None):
         if seed is None:
             base = int(self._rng.integers(0, 2**62))
-        elif isinstance(seed, (int, np.integer)):
-            base = int(seed)
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
+            base = check_seed(seed)
+            if base + self.num_envs - 1 > MAX_SEED:
+                raise ValueError(
+                    f"seed: env i gets seed + i, so with {self.num_envs} envs the seed must be "
+                    f"<= 2**64 - {self.num_envs} (numpy's seed range), got {base}"
+                )
             self._rng = np.random.default_rng(base)
         else:
             raise ValueError("seed: the vector env takes one integer (env i gets seed + i)")

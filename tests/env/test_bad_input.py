@@ -116,7 +116,9 @@ def test_disturbance_phase_option():
         env = gym.make("contour_env/Contouring-v0", case="sharp-corner", disturbance_phase=phase)
         env.reset(seed=seed)
         for _ in range(300):
-            _, _, _, _, info = env.step(np.full(2, 0.05, dtype=np.float32))
+            _, _, terminated, truncated, info = env.step(np.full(2, 0.05, dtype=np.float32))
+            if terminated or truncated:  # a step after the end raises (issue 36 item 11)
+                break
         return info["position"]
 
     # fixed: the seed does not matter (noise-free case); random: it does, and repeats
