@@ -19,7 +19,7 @@ import numpy as np
 
 from . import DEFAULT_CASE
 from .paths import FeedProfile, PathGeometry, ReferenceTrajectory, circle, polyline
-from .paths.gcode import parse_gcode, read_gcode
+from .paths.gcode import MAX_FEED_M_S, parse_gcode, read_gcode
 from .paths.gcode_source import is_program_text
 from .plants import FIVE_AXIS_PLANT_ALIASES, Plant
 from .plants.catalog import PLANT_ALIASES, nominal_params
@@ -606,6 +606,10 @@ def build_setup(
             and (value >= 0 if rule == ">= 0" else value > 0)
         ):
             raise ValueError(f"{label}: must be a finite number {rule}, got {value!r}")
+        if label in ("feedrate_m_s", "rapid_feed_m_s") and value is not None:
+            # the G-code reader's F limit: keeps every time and distance of the planner finite
+            if value > MAX_FEED_M_S:
+                raise ValueError(f"{label}: must be > 0 and <= {MAX_FEED_M_S:g} m/s, got {value!r}")
     for label, value in (
         ("ideal", ideal),
         ("structural_mode", structural_mode),

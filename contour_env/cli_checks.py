@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from .paths.gcode import MAX_FEED_M_S
+
 __all__ = ["check_compare_options"]
 
 
@@ -18,7 +20,7 @@ def _strip(msg: str, *prefixes: str) -> str:
 def _number_rule(value, rule: str) -> bool:
     if not math.isfinite(value):
         return False
-    return {"> 0": value > 0, "[0, 1)": 0 <= value < 1}[rule]
+    return {"feed": 0 < value <= MAX_FEED_M_S, "[0, 1)": 0 <= value < 1}[rule]
 
 
 def compare_option_errors(args) -> list[str]:
@@ -45,12 +47,14 @@ def compare_option_errors(args) -> list[str]:
     except ValueError as exc:
         errors.append(f"--metrics: {_strip(str(exc), 'metrics')}")
     for option, value, rule in (
-        ("--feedrate", args.feedrate, "> 0"),
-        ("--rapid-feed", args.rapid_feed, "> 0"),
+        ("--feedrate", args.feedrate, "feed"),
+        ("--rapid-feed", args.rapid_feed, "feed"),
         ("--randomize", args.randomize, "[0, 1)"),
     ):
         if value is not None and not _number_rule(value, rule):
-            what = "a fraction in [0, 1)" if rule == "[0, 1)" else f"a finite number {rule}"
+            what = (
+                "a fraction in [0, 1)" if rule == "[0, 1)" else f"> 0 and <= {MAX_FEED_M_S:g} m/s"
+            )
             errors.append(f"{option}: must be {what}, got {value:g}")
     if args.episodes < 1:
         errors.append(f"--episodes: must be >= 1, got {args.episodes}")

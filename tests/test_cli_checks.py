@@ -71,6 +71,7 @@ def test_every_bad_option_is_named_in_one_error(capsys):
         (["--randomize", "1"], "--randomize: must be a fraction in [0, 1), got 1"),
         (["--episodes", "0"], "--episodes: must be >= 1, got 0"),
         (["--seed", "-1"], "--seed: must be in [0, 2**64 - 1]"),
+        (["--feedrate", "1e3"], "--feedrate: must be > 0 and <= 100 m/s, got 1000"),
     ],
 )
 def test_one_bad_option(extra, fragment, capsys):

@@ -189,3 +189,13 @@ def test_the_largest_feed_plans_without_warnings():
         setup = build_setup(plant="hsm2", path="G21 G1 X500 F6000000\nY-500\n")
     assert np.all(np.isfinite(setup.reference.position))
     assert setup.profile.duration > 0.0
+
+
+@pytest.mark.parametrize("name", ["feedrate_m_s", "rapid_feed_m_s"])
+def test_api_feed_overrides_are_bounded_like_f(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=rf"^{name}: must be > 0 and <= 100 m/s, got 1e\+200$"):
+            build_setup(plant="hsm2", path="G0 X5\nG1 X6 F600", **{name: 1e200})
+        setup = build_setup(plant="hsm2", path="G0 X5\nG1 X6 F600", **{name: 100.0})
+    assert np.all(np.isfinite(setup.reference.position))
