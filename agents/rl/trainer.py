@@ -166,6 +166,14 @@ def plot_learning_curve(
     x = [p["timesteps"] for p in curve]
     y = [p["rms_contour_error_um"] for p in curve]
     ax.plot(x, y, "o-", ms=3, label="residual agent (deterministic)")
+    ok = [(p["timesteps"], p["rms_contour_error_um"]) for p in curve if p.get("eligible")]
+    if any("eligible" in p for p in curve):
+        # keep-best's candidates: no validation part worse than the base, enough mean gain;
+        # the kept one is the eligible point with the lowest mean *ratio*, not the lowest RMS
+        ax.plot(
+            [t for t, _ in ok], [v for _, v in ok], "o", mfc="none", mec="g", ms=9,
+            label=f"eligible ({len(ok)} of {len(curve)}): no part worse than the base",
+        )  # fmt: skip
     if np.isfinite(base_rms):  # ∞: the base did not complete a path
         ax.axhline(base_rms, color="k", ls="--", lw=1, label=f"base {base}: {base_rms:.3g} µm")
     if best is not None and best[0] is not None and np.isfinite(best[1]):
@@ -538,7 +546,11 @@ def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curv
         extra["validation_base_rms_contour_error_um"] = record["base_rms_contour_error_um"]
         extra["validation_score"] = record["best"]["validation_score"]
         points = [
-            {"timesteps": p["timesteps"], "rms_contour_error_um": p["rms_contour_error_um"]}
+            {
+                "timesteps": p["timesteps"],
+                "rms_contour_error_um": p["rms_contour_error_um"],
+                "eligible": bool(p.get("eligible")),
+            }
             for p in val_curve
             if p["rms_contour_error_um"] is not None
         ]
