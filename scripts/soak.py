@@ -2,18 +2,24 @@
 
     python scripts/soak.py --steps 1000000 [--seed 0] [--n-envs 8] [--json soak.json]
 
-The steps are spread evenly over every named case × {single env, vector env of ``--n-envs``} ×
-{nominal plant, plant parameters varied ±20 % (``plants.randomize.randomized``, as
-``agents/compare.py --randomize``)}; a vector step counts ``n_envs`` steps. Each episode
+The steps are spread evenly over every named case (``cases.all_case_names``: the feed-drive
+cases and the five-axis ones) × {single env, vector env of ``--n-envs``} × {nominal plant,
+plant parameters varied ±20 % (``plants.randomize.randomized``, as ``agents/compare.py
+--randomize``)}; the five-axis plant has no variations (``compare --randomize`` refuses it
+too), so its cases run nominal only. A vector step counts ``n_envs`` steps. Each episode
 drives one action pattern, in turn: 0, +1, −1, uniform random in [−1, 1], alternating sign
 (±1), uniform random in [−5, 5] and ±1e300 (clipped to [−1, 1] by the env). Actions the env
 documents as errors (NaN, ±inf: ``ValueError``) are probed a few times per block and must
-raise ``ValueError``; the env is reset after each probe.
+raise ``ValueError``; the env is reset after each probe. In the vector env they are also
+probed, a few times per block, in the row of an env whose episode has just ended, on the
+step that autoresets it (the action is ignored there, and must be refused all the same); the
+refused step changes nothing, so the soak goes on without a reset.
 
 Counted, and any one is a failure (exit status 1): NaN/inf in an observation, a reward or a
-numeric info field (the contour error of an env that ended with ``non_finite_state`` is
-``inf`` by design: counted apart, as a termination), a non-finite action that does not raise
-ValueError, and any other exception. Prints a summary (and writes it as JSON with --json).
+floating-point info field, every one the env returns (the contour error of an env that ended
+with ``non_finite_state`` is ``inf`` by design: counted apart, as a termination), a
+non-finite action that does not raise ValueError, and any other exception. Prints a summary
+(and writes it as JSON with --json).
 """
 
 from __future__ import annotations
@@ -25,23 +31,12 @@ import traceback
 
 import numpy as np
 
-from contour_env.cases import CASES
+from contour_env.cases import FIVE_AXIS_CASES, all_case_names
 from contour_env.env.contouring_env import ContouringEnv
 from contour_env.env.vector_env import ContouringVectorEnv
 from contour_env.plants.randomize import randomized
 
 PATTERNS = ("zero", "plus", "minus", "random", "alternate", "wide", "huge")
-INFO_NUMERIC = (
-    "time",
-    "position",
-    "measured_position",
-    "velocity",
-    "reference",
-    "contour_error",
-    "contour_error_estimate",
-    "tracking_error",
-    "force",
-)
 PROBES_PER_BLOCK = 3
 
 
@@ -71,6 +66,7 @@ class Counts:
         self.nonfinite_reward = 0
         self.nonfinite_info = 0
         self.probes = 0
+        self.autoreset_probes = 0
         self.probe_not_refused = 0
         self.exceptions = 0
         self.terminations: dict[str, int] = {}
@@ -99,6 +95,7 @@ class Counts:
             "nonfinite_reward": self.nonfinite_reward,
             "nonfinite_info": self.nonfinite_info,
             "nonfinite_action_probes": self.probes,
+            "autoreset_action_probes": self.autoreset_probes,
             "nonfinite_action_not_refused": self.probe_not_refused,
             "exceptions": self.exceptions,
             "terminations": dict(sorted(self.terminations.items())),
@@ -121,8 +118,10 @@ def _check(c: Counts, where: str, obs, reward, info, ended_nonfinite) -> None:
     else:
         c.min_reward = min(c.min_reward, float(reward.min()))
     keep = ~np.asarray(ended_nonfinite, dtype=bool)
-    for key in INFO_NUMERIC:
-        v = np.asarray(info[key], dtype=np.float64)
+    for key, value in info.items():
+        v = np.asarray(value)
+        if v.dtype.kind != "f":  # step counts, saturation flags, termination reasons
+            continue
         if v.ndim and v.shape[0] == keep.shape[0] and keep.shape[0] > 1:
             v = v[keep]
         elif not keep.all():
@@ -133,10 +132,12 @@ def _check(c: Counts, where: str, obs, reward, info, ended_nonfinite) -> None:
             break
 
 
-def _probe(c: Counts, step, shape, where: str) -> None:
+def _probe(c: Counts, step, shape, where: str, base=None, row: int = -1) -> None:
+    """Step with NaN, +inf and -inf in turn, in the last axis of ``row`` of ``base`` (zeros if
+    None); each must raise ValueError."""
     for bad in (np.nan, np.inf, -np.inf):
-        a = np.zeros(shape)
-        a.flat[-1] = bad
+        a = np.zeros(shape) if base is None else np.array(base, dtype=np.float64)
+        a.reshape(-1, shape[-1])[row, -1] = bad
         c.probes += 1
         try:
             step(a)
@@ -188,15 +189,23 @@ def soak_vector(c: Counts, case: str, params, n_envs: int, steps: int, rng, seed
     # one pattern per env, rotating at each of its episodes
     patterns = np.arange(n_envs) % len(PATTERNS)
     k = np.zeros(n_envs, dtype=np.int64)
+    autoreset_probes = 0
+    ended = ()
     for i in range(calls):
         if i % probe_every == probe_every - 1:
             _probe(c, venv.step, shape, where)
             venv.reset(seed=seed + i)
             c.episodes += n_envs
             k[:] = 0
+            ended = ()  # the reset cleared the autoresets due
         a = np.empty(shape)
         for b in range(n_envs):
             a[b] = action_for(PATTERNS[patterns[b]], int(k[b]), shape[1:], rng)
+        if len(ended) and autoreset_probes < PROBES_PER_BLOCK:
+            # an env being autoreset at this step: its (ignored) action must still be finite
+            autoreset_probes += 1
+            c.autoreset_probes += 3
+            _probe(c, venv.step, shape, f"{where} autoreset of env {ended[0]}", a, ended[0])
         obs, r, term, trunc, info = venv.step(a)
         k += 1
         c.steps += n_envs
@@ -211,14 +220,16 @@ def soak_vector(c: Counts, case: str, params, n_envs: int, steps: int, rng, seed
             c.episodes += 1
 
 
-def soak(steps: int, seed: int = 0, n_envs: int = 8, progress=print) -> dict:
+def soak(steps: int, seed: int = 0, n_envs: int = 8, progress=print, cases=None) -> dict:
+    """The soak over ``cases`` (default: every named case)."""
     rng = np.random.default_rng(seed)
     c = Counts()
+    cases = all_case_names() if cases is None else list(cases)
     blocks = [
         (case, mode, randomise)
-        for case in CASES
+        for case in cases
         for mode in ("single", "vector")
-        for randomise in (False, True)
+        for randomise in ((False,) if case in FIVE_AXIS_CASES else (False, True))
     ]
     per_block = max(1, steps // len(blocks))
     t0 = time.perf_counter()
@@ -243,7 +254,14 @@ def soak(steps: int, seed: int = 0, n_envs: int = 8, progress=print) -> dict:
                 f"{c.failures} failures"
             )
     out = c.to_dict()
-    out.update(requested_steps=steps, seed=seed, n_envs=n_envs, wall_s=time.perf_counter() - t0)
+    out.update(
+        requested_steps=steps,
+        seed=seed,
+        n_envs=n_envs,
+        cases=cases,
+        blocks=[f"{case} {mode}{' ±20 %' if r else ''}" for case, mode, r in blocks],
+        wall_s=time.perf_counter() - t0,
+    )
     return out
 
 
@@ -251,10 +269,11 @@ def format_summary(res: dict) -> str:
     lines = [
         f"soak: {res['steps']} steps ({res['episodes']} episodes) in {res['wall_s']:.1f} s, "
         f"seed {res['seed']}, vector envs of {res['n_envs']}",
+        f"  {len(res['cases'])} cases, {len(res['blocks'])} blocks: {', '.join(res['cases'])}",
         f"  non-finite obs {res['nonfinite_obs']}, reward {res['nonfinite_reward']}, info "
         f"{res['nonfinite_info']}; exceptions {res['exceptions']}",
-        f"  NaN/inf actions probed {res['nonfinite_action_probes']}, not refused "
-        f"{res['nonfinite_action_not_refused']}",
+        f"  NaN/inf actions probed {res['nonfinite_action_probes']} (at an autoreset "
+        f"{res['autoreset_action_probes']}), not refused {res['nonfinite_action_not_refused']}",
         f"  episode ends: {res['terminations']}; lowest reward {res['min_reward']}",
     ]
     for p in res["first_problems"]:

@@ -601,10 +601,7 @@ class EnvCore:
             )
         )
         if bad >= 0:
-            raise ValueError(
-                f"action: must be finite, got {action[bad].tolist()} (env {bad}); the action is "
-                "the per-axis command in [-1, 1] of the force limit"
-            )
+            raise nonfinite_action_error(action, bad)
         all_active = active is self.all_active
         if fresh_outputs:
             carry = None if all_active or not carry_inactive else ~np.asarray(active, bool)
@@ -631,6 +628,13 @@ class EnvCore:
             for new, old in zip(outputs, olds, strict=True):
                 new[carry] = old[carry]
         self.obs, self.reward, self.terminated, self.truncated = outputs
+
+    def refuse_nonfinite(self, action: np.ndarray, rows: np.ndarray) -> None:
+        """The ValueError of :meth:`step` if the action (B, A) of an env in ``rows`` (a boolean
+        mask) is not finite; for envs whose action is not used (the vector env's autoreset)."""
+        bad = K.first_bad_action(action, rows)
+        if bad >= 0:
+            raise nonfinite_action_error(action, bad)
 
     def renew_outputs(self) -> None:
         """Give the core new ``obs``, ``reward``, ``terminated`` and ``truncated`` arrays (copies
@@ -772,6 +776,14 @@ def check_env_arguments(config: dict) -> None:
         raise ValueError(
             f"unknown argument{'s' * (len(unknown) > 1)} {names}; the env's arguments are: {known}"
         )
+
+
+def nonfinite_action_error(action: np.ndarray, bad: int) -> ValueError:
+    """The error for the non-finite action of env ``bad`` (row ``bad`` of ``action``)."""
+    return ValueError(
+        f"action: must be finite, got {action[bad].tolist()} (env {bad}); the action is "
+        "the per-axis command in [-1, 1] of the force limit"
+    )
 
 
 def check_seed(seed, name: str = "seed") -> int:

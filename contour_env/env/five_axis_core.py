@@ -279,13 +279,7 @@ class FiveAxisCore:
         if action.shape != (self.n_envs, 5):
             raise ValueError(f"action: expected shape ({self.n_envs}, 5), got {action.shape}")
         active = np.ascontiguousarray(active, dtype=np.bool_)
-        bad_rows = active & ~np.all(np.isfinite(action), axis=1)
-        if bad_rows.any():
-            b = int(np.argmax(bad_rows))
-            raise ValueError(
-                f"action: must be finite, got {action[b].tolist()} (env {b}); the action is "
-                "the per-joint command in [-1, 1] of the drive limit"
-            )
+        self.refuse_nonfinite(action, active)
         if fresh_outputs:
             self.renew_outputs()
         p = self.packed
@@ -300,6 +294,17 @@ class FiveAxisCore:
         if info_arrays is not None:
             self.fill_info(info_arrays, np.flatnonzero(active))
         return int(n_ended)
+
+    def refuse_nonfinite(self, action: np.ndarray, rows: np.ndarray) -> None:
+        """The ValueError of :meth:`step` if the action (B, 5) of an env in ``rows`` (a boolean
+        mask) is not finite; for envs whose action is not used (the vector env's autoreset)."""
+        bad_rows = rows & ~np.all(np.isfinite(action), axis=1)
+        if bad_rows.any():
+            b = int(np.argmax(bad_rows))
+            raise ValueError(
+                f"action: must be finite, got {action[b].tolist()} (env {b}); the action is "
+                "the per-joint command in [-1, 1] of the drive limit"
+            )
 
     def renew_outputs(self) -> None:
         """New obs, reward, terminated and truncated arrays (copies): arrays handed out

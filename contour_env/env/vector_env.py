@@ -3,8 +3,9 @@
 Created by ``gymnasium.make_vec("contour_env/Contouring-v0", num_envs=N,
 vectorization_mode="vector_entry_point", ...)``. Autoreset follows Gymnasium's default
 NEXT_STEP mode: the step after an env's episode ends resets it (its action is ignored, reward
-0, not done). ``reset(seed=s)`` seeds env i with s + i, so env i replays exactly what a single
-env reset with seed s + i does (noise and random disturbances are keyed by that seed).
+0, not done; a NaN or infinite action is refused all the same, as at any step).
+``reset(seed=s)`` seeds env i with s + i, so env i replays exactly what a single env reset
+with seed s + i does (noise and random disturbances are keyed by that seed).
 
 The arrays returned by ``reset`` and ``step`` are new at every call and never written again
 by the env, so they may be kept without copying.
@@ -79,7 +80,11 @@ class ContouringVectorEnv(VectorEnv):
             raise ValueError(
                 f"actions: expected shape ({self.num_envs}, {core.dim}), got {a.shape}"
             )
+        a = np.ascontiguousarray(a)
         resetting = self._needs_reset
+        if resetting is not None:
+            # the autoreset ignores these envs' actions; a non-finite one is refused all the same
+            core.refuse_nonfinite(a, resetting)
         active = core.all_active if resetting is None else ~resetting
         # The kernel writes the info of every env it steps, and the observations, rewards and
         # done flags into new arrays (fresh_outputs): cheaper than copying them afterwards,
@@ -88,9 +93,7 @@ class ContouringVectorEnv(VectorEnv):
         info = core.new_info_arrays()
         # the envs not stepped are reset right below, which writes their output rows: nothing
         # to carry over from the previous arrays
-        n_ended = core.step(
-            np.ascontiguousarray(a), active, info, fresh_outputs=True, carry_inactive=False
-        )
+        n_ended = core.step(a, active, info, fresh_outputs=True, carry_inactive=False)
         if resetting is not None:
             envs = np.flatnonzero(resetting)
             # one draw per env in index order (the same seeds as drawing them one by one)

@@ -198,3 +198,49 @@ def test_termination_reason_kept_for_an_env_left_out_of_a_step():
     core.step(np.zeros((3, 2)), np.array([False, True, True]), info)
     reasons = core.info_dict(info)["termination_reason"]
     assert reasons[0] == "contour_error_limit" and reasons[1] == "" and reasons[2] == ""
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_vector_env_refuses_a_nonfinite_action_of_an_env_being_autoreset(bad):
+    # issue 36 item 8: the step after env 0's episode ended resets env 0 and ignores its
+    # action (NEXT_STEP autoreset); a NaN/inf action there is refused all the same, as it is
+    # at any other step, and the refused step changes nothing
+    venv = _tight_guard_venv(2)
+    venv.reset(seed=0)
+    actions = np.array([[1.0, 1.0], [0.0, 0.0]])
+    for _ in range(2000):
+        _, _, term, trunc, info = venv.step(actions)
+        if term[0]:
+            break
+    assert term[0] and not (term[1] or trunc[1])
+    step_1 = info["step"][1]
+    a = actions.copy()
+    a[0, 1] = bad
+    with pytest.raises(ValueError, match=r"action: must be finite, got \[1\.0, .*\] \(env 0\)"):
+        venv.step(a)
+    # still due for its reset: the next (finite) step resets env 0 and steps env 1 once
+    _, r, term, _, info = venv.step(actions)
+    assert r[0] == 0.0 and not term[0] and info["step"][0] == 0
+    assert info["step"][1] == step_1 + 1
+
+
+def test_five_axis_vector_env_refuses_a_nonfinite_action_of_an_env_being_autoreset():
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        case="five-axis-line",
+        abort_contour_error_m=1e-5,
+    )
+    venv.reset(seed=0)
+    actions = np.zeros((2, 5))
+    actions[0] = 1.0
+    for _ in range(5000):
+        _, _, term, trunc, _ = venv.step(actions)
+        if term[0] or trunc[0]:
+            break
+    assert term[0] or trunc[0]
+    a = actions.copy()
+    a[0, 3] = np.nan
+    with pytest.raises(ValueError, match=r"action: must be finite.*\(env 0\)"):
+        venv.step(a)
