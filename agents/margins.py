@@ -36,7 +36,8 @@ import control
 import numpy as np
 
 from contour_env.analysis.linear_plant import controller_system, discrete_plant
-from contour_env.plants import Plant
+from contour_env.plants import FIVE_AXIS_PLANT_ALIASES, Plant
+from contour_env.plants.catalog import PLANTS
 
 from .registry import make_controller
 
@@ -205,6 +206,11 @@ def _library_margins(L: np.ndarray, omega: np.ndarray, index: int | None = None)
 def _plant_for(plant, ideal: bool, structural_mode: bool) -> Plant:
     if isinstance(plant, Plant):
         return plant
+    if isinstance(plant, str) and plant in FIVE_AXIS_PLANT_ALIASES:
+        raise ValueError(
+            f"plant: the five-axis plant ({plant!r}) has no margins tool yet; margins are for "
+            f"the feed-drive plants: {', '.join(PLANTS)}"
+        )
     return Plant(plant, ideal=ideal, structural_mode=structural_mode)
 
 

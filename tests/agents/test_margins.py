@@ -216,3 +216,16 @@ def test_margins_cli_flags_an_unstable_gain_set(capsys):
 def test_margins_bad_input_is_a_clear_error(argv, needle, capsys):
     assert main(["margins", *argv]) == 2
     assert needle in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("plant", ["five-axis", "nxv560a"])
+def test_margins_of_the_five_axis_plant_say_there_is_no_tool_yet(plant, capsys):
+    # issue 36 item 14: `contour-env cases` lists five-axis cases; margins has no five-axis
+    # tool yet: one line saying so and naming the plants it has, exit 2 (not "unknown plant")
+    assert main(["margins", "--plant", plant]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown plant" not in err
+    assert f"five-axis plant ('{plant}') has no margins tool yet" in err
+    assert "hsm2, jee-triaxial, linear-motor, friction-table" in err
+    with pytest.raises(ValueError, match="has no margins tool yet"):
+        loop_margins("pd", plant)
