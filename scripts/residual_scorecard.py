@@ -31,29 +31,20 @@ def _r(x) -> str:
 
 
 def markdown(cards: list[dict]) -> str:
-    """The README table: per agent and target, base and agent RMS (µm) and the ratio."""
+    """The README's summary: per agent, what keep-best kept and the agent / base RMS ratios
+    (held-out mean and worst, named cases' worst, worst of all); the per-target figures are the
+    README's generated ``residual_table``."""
     lines = [
-        "| agent (base) | target | base RMS ε (µm) | agent RMS ε (µm) | agent / base |",
-        "|---|---|---|---|---|",
+        "| agent (base) | kept | held-out programs: mean | held-out: worst | named cases: worst "
+        "| worst of all |",
+        "|---|---|---|---|---|---|",
     ]
     for c in cards:
-        who = f"`{c['model']}` ({c['base']}{', kept: base' if c['kept'] == 'base' else ''})"
-        if c["kept"] == "base" and all(r["rms_ratio"] == 1.0 for r in c["rows"]):
-            lines.append(
-                f"| {who} | every one of its {len(c['rows'])} targets: no checkpoint passed "
-                f"keep-best, the agent is its base | | | **1.000** |"
-            )
-            continue
-        for r in c["rows"]:
-            tgt = f"`{r['target']}`" + (" (case)" if r["kind"] == "case" else "")
-            lines.append(
-                f"| {who} | {tgt} | {r['base_rms_contour_error_um']:.3f} | "
-                f"{r['agent_rms_contour_error_um']:.3f} | {_r(r['rms_ratio'])} |"
-            )
+        kept = {"base": "the base (no checkpoint passed)", "best-validation": "best checkpoint"}
         lines.append(
-            f"| {who} | **held-out mean / worst; worst of all** | | | "
-            f"**{_r(c['heldout_mean_ratio'])} / {_r(c['heldout_worst_ratio'])}; "
-            f"{_r(c['worst_ratio'])}** |"
+            f"| `{c['model']}` ({c['base']}) | {kept.get(c['kept'], c['kept'])} | "
+            f"{_r(c['heldout_mean_ratio'])} | {_r(c['heldout_worst_ratio'])} | "
+            f"{_r(c['cases_worst_ratio'])} | {_r(c['worst_ratio'])} |"
         )
     return "\n".join(lines)
 
