@@ -308,7 +308,8 @@ def add_rl_commands(sub) -> None:
         "--gate",
         action=argparse.BooleanOptionalAction,
         default=None,
-        help="a learned gate g in [0, 1] on the residual, starting closed (default off)",
+        help="a learned gate g in [0, 1] on the residual, starting closed (default on: the "
+        "README's ablation)",
     )
     p.add_argument(
         "--observe-axes",

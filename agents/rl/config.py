@@ -83,7 +83,7 @@ class TrainConfig:
     # the residual, the per-axis reference velocity and acceleration in the observation
     # (agents.residual_law; the defaults are the README ablation's choice)
     residual_frame: str = "path"
-    gate: bool = False
+    gate: bool = True
     observe_axes: bool = True
     # no residual while the reference stands still (agents.residual_law, "At rest")
     fade_at_rest: bool = True
