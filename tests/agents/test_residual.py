@@ -296,8 +296,17 @@ def test_residual_axes_is_checked_and_old_agents_keep_every_axis(tmp_path):
     assert TrainConfig.from_dict(old).residual_axes == "all"
     with pytest.raises(ValueError, match="residual_axes"):
         TrainConfig(cases=("sharp-corner",), residual_axes="z")
+    # an agent.json written before the option (the shipped agents of 2026-12-02 were such)
+    import json
+    import shutil
+
     from agents.residual import ResidualAgent
     from agents.rl.models import shipped_model_for
 
-    agent = ResidualAgent(shipped_model_for("linear-motor"))
+    old_dir = tmp_path / "old-agent"
+    shutil.copytree(shipped_model_for("friction-table"), old_dir)
+    meta = json.loads((old_dir / "agent.json").read_text())
+    assert meta.pop("residual_axes") == "path"
+    (old_dir / "agent.json").write_text(json.dumps(meta))
+    agent = ResidualAgent(old_dir)
     assert "residual_axes" not in agent.meta and agent.residual_axes == "all"

@@ -122,7 +122,9 @@ def test_ablation_summary_and_table_follow_from_the_cards():
 
 def test_installing_a_run_checks_that_it_is_the_shipped_configuration(tiny_model, tmp_path):
     mod = _script("train_agents")
-    with pytest.raises(SystemExit, match=r"differs from SHIPPED\['friction-table'\] in \[.*'gate'"):
+    with pytest.raises(
+        SystemExit, match=r"differs from SHIPPED\['friction-table'\] in \[.*'path_variety'"
+    ):
         mod.check_run(tiny_model, "friction-table")
     with pytest.raises(SystemExit, match="not a finished run"):
         mod.check_run(tmp_path, "friction-table")
