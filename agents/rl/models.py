@@ -45,6 +45,7 @@ def list_models(root=None) -> list[dict]:
                 "timesteps": m.get("timesteps"),
                 "scale": m["scale"],
                 "train_wall_s": m.get("train_wall_s"),
+                "kept": m.get("kept"),
             }
         )
     return rows
@@ -63,16 +64,25 @@ def shipped_model_for(plant: str, root=None) -> Path:
     )
 
 
+def _kept(kept) -> str:
+    """What keep-best kept, for the table: the base itself (the agent is its base), the best
+    checkpoint by validation, the final model, or '-' for agents from before keep-best."""
+    return {"base": "the base itself", "best-validation": "best checkpoint"}.get(kept, kept or "-")
+
+
 def format_models(rows: list[dict]) -> str:
     if not rows:
         return "no trained agents found"
-    lines = [f"{'name':22s} {'plant':15s} {'algo':5s} {'base':13s} {'timesteps':>10s}  cases"]
+    lines = [
+        f"{'name':22s} {'plant':15s} {'algo':5s} {'base':13s} {'timesteps':>10s}  "
+        f"{'kept':16s} cases"
+    ]
     for r in rows:
         if "error" in r:
             lines.append(f"{r['name']:22s} unreadable: {r['error']}")
             continue
         lines.append(
             f"{r['name']:22s} {r['plant']:15s} {r['algo']:5s} {r['base']:13s} "
-            f"{r['timesteps'] or 0:>10d}  {', '.join(r['cases'])}"
+            f"{r['timesteps'] or 0:>10d}  {_kept(r.get('kept')):16s} {', '.join(r['cases'])}"
         )
     return "\n".join(lines)

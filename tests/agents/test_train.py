@@ -249,6 +249,10 @@ def test_cli_train_evaluate_and_models(tmp_path, gcode, capsys, sac_run):
     rows = list_models(out.parent)
     assert {r["name"] for r in rows} == {"cli"}
     assert "friction-table" in format_models(rows)
+    shipped = format_models(list_models())
+    assert "kept" in shipped.splitlines()[0]
+    lines = shipped.splitlines()
+    assert any(line.startswith("hsm2") and "the base itself" in line for line in lines)
     with pytest.raises(ValueError, match="no shipped residual agent for plant 'hsm2'"):
         shipped_model_for("hsm2", root=out.parent)
     assert shipped_model_for("friction-table", root=out.parent) == out
