@@ -34,11 +34,11 @@ class StepThreads:
     :attr:`SLOWDOWN`× slower than the probe measured (another process, or torch's threads
     in this process, took the cores); a candidate far slower than one already probed is
     dropped after its first timed step (its untimed first step, which wakes the thread pool,
-    never decides); the fewest threads are re-probed at the shortest hold. So a busy machine gets fewer threads, down to the serial
-    driver, instead of a thread team that waits at every step for a member whose core is
-    taken. An integer n ≥ 1: always n threads (1: the serial driver; capped at numba's thread
-    count). The results are bit-identical for any count: each env is stepped by the same
-    arithmetic whichever thread runs it.
+    never decides); the fewest threads are re-probed at the shortest hold. So a busy machine
+    gets fewer threads, down to the serial driver, instead of a thread team that waits at
+    every step for a member whose core is taken. An integer n ≥ 1: always n threads (1: the
+    serial driver; capped at numba's thread count). The results are bit-identical for any
+    count: each env is stepped by the same arithmetic whichever thread runs it.
     """
 
     PROBE_CALLS = 3  # timed steps per candidate and probe (after one untimed step)
