@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import math
 import os
 import shutil
 import time
@@ -186,6 +187,35 @@ def plot_learning_curve(
     fig.tight_layout()
     atomic_save_figure(fig, out, dpi=110)
     plt.close(fig)
+
+
+def plot_validation(record: dict, algo: str, plant: str, out) -> None:
+    """``validation_curve.png`` from the content of ``validation_curve.json`` (``record``, see
+    :func:`agents.rl.validation.validation_record`): mean validation RMS (µm) per checkpoint,
+    keep-best's eligible checkpoints circled, the kept one starred (none when the base is
+    kept); a model DIR's plot can be redrawn from its JSON alone."""
+    points = [
+        {
+            "timesteps": p["timesteps"],
+            "rms_contour_error_um": p["rms_contour_error_um"],
+            "eligible": bool(p.get("eligible")),
+        }
+        for p in record["curve"]
+        if p["rms_contour_error_um"] is not None
+    ]
+    best = record["best"]
+    kept_base = best["kept"] == "base"
+    base_rms = record["base_rms_contour_error_um"]
+    where = "the base kept" if kept_base else f"kept: {best['timesteps']} timesteps"
+    plot_learning_curve(
+        points,
+        math.inf if base_rms is None else base_rms,
+        record["base"],
+        f"{algo} + {record['base']}, {plant}: validation ({len(record['paths'])} generated "
+        f"paths), {where}",
+        out,
+        best=None if kept_base else (best["timesteps"], best["validation_rms_contour_error_um"]),
+    )
 
 
 def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool = True, log=print):
@@ -386,15 +416,16 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         def _on_step(self) -> bool:
             if self.bar is not None:
                 self.bar.update(self.num_timesteps - self.bar.n)
-            if cfg.time_budget_s is not None and train_s() >= cfg.time_budget_s:
+            now_s = train_s()
+            if cfg.time_budget_s is not None and now_s >= cfg.time_budget_s:
                 return False  # sb3 ends learn(); the run is finished as at its last step
             if rate is not None:
                 rate.at(
-                    train_s() / cfg.time_budget_s
+                    now_s / cfg.time_budget_s
                     if cfg.time_budget_s is not None
                     else self.num_timesteps / cfg.timesteps
                 )
-            by_time = self.next_eval_s is not None and train_s() >= self.next_eval_s
+            by_time = self.next_eval_s is not None and now_s >= self.next_eval_s
             if self.num_timesteps >= self.next_eval or by_time:
                 self._evaluate()
                 while self.next_eval <= self.num_timesteps:
@@ -545,25 +576,7 @@ def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curv
         extra["validation_rms_contour_error_um"] = record["best"]["validation_rms_contour_error_um"]
         extra["validation_base_rms_contour_error_um"] = record["base_rms_contour_error_um"]
         extra["validation_score"] = record["best"]["validation_score"]
-        points = [
-            {
-                "timesteps": p["timesteps"],
-                "rms_contour_error_um": p["rms_contour_error_um"],
-                "eligible": bool(p.get("eligible")),
-            }
-            for p in val_curve
-            if p["rms_contour_error_um"] is not None
-        ]
-        where = "the base kept" if best.kept_base else f"kept: {best.timesteps} timesteps"
-        plot_learning_curve(
-            points,
-            validator.base_rms,
-            cfg.base,
-            f"{cfg.algo} + {cfg.base}, {cfg.plant_name}: validation ({len(validator.paths)} "
-            f"generated paths), {where}",
-            out / "validation_curve.png",
-            best=None if best.kept_base else (best.timesteps, best.rms),
-        )
+        plot_validation(record, cfg.algo, cfg.plant_name, out / "validation_curve.png")
     meta.update(extra)
     atomic_write_json(out / "agent.json", meta)
     return {

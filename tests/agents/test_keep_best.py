@@ -252,3 +252,16 @@ def _square():
     from importlib.resources import files
 
     return files("contour_env") / "data" / "square_corners.nc"
+
+
+@pytest.mark.parametrize("name", ["friction-table", "hsm2"])
+def test_a_model_dirs_validation_plot_is_redrawn_from_its_json(tmp_path, name):
+    import json
+
+    from agents.rl.models import MODELS_DIR
+    from agents.rl.trainer import plot_validation
+
+    record = json.loads((MODELS_DIR / name / "validation_curve.json").read_text())
+    out = tmp_path / "v.png"
+    plot_validation(record, "sac", name, out)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
