@@ -11,7 +11,10 @@ import argparse
 
 from .cli import _add_target_args, _print_metrics, _target_kwargs, gcode_file
 
-ALGOS = ("sac", "td3", "ppo")
+# agents.rl.config.ALGOS (not imported here: the CLI starts without the RL stack); the sbx-*
+# algorithms are the JAX implementations, the optional extra pip install -e ".[jax]"
+ALGOS = ("sac", "td3", "ppo", "sbx-sac", "sbx-ppo")
+JAX_ALGOS = ("sbx-sac", "sbx-ppo")
 
 
 def _floats(text: str, name: str, n: int | None = None) -> tuple:
@@ -123,6 +126,11 @@ def train_from_args(args, log=print):
         raise ValueError("--out: give the output DIR (model, config, curve, checkpoints)")
     apply_train_defaults(args)
     cfg = config_from_args(args)
+    if cfg.algo in JAX_ALGOS:
+        # without the [jax] extra: the error before the output DIR is created
+        from agents.rl.checkpoint import sbx_module
+
+        sbx_module()
     res = train(cfg, args.out, resume=args.resume, progress=not args.no_progress, log=log)
     return cfg, res
 
@@ -225,7 +233,13 @@ def add_rl_commands(sub) -> None:
         "--gcode", action="append", help="G-code training program (repeatable), with --plant"
     )
     p.add_argument("--base", default="pd", help="base controller (default pd)")
-    p.add_argument("--algo", choices=ALGOS, default="sac", help="sb3 algorithm (default sac)")
+    p.add_argument(
+        "--algo",
+        choices=ALGOS,
+        default="sac",
+        help="sb3 algorithm (default sac); sbx-sac, sbx-ppo: the JAX implementation sbx-rl "
+        '(pip install -e ".[jax]")',
+    )
     p.add_argument(
         "--timesteps", type=int, default=20_000, help="agent steps in total (default 20000)"
     )

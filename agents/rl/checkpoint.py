@@ -1,15 +1,17 @@
 """Model files, normalisation statistics and atomic, verified checkpoints.
 
-A checkpoint is a directory ``checkpoints/step_<timesteps>`` holding ``model.zip`` (sb3),
-``vecnormalize.pkl`` (sb3's VecNormalize, for resuming), ``normalization.json`` (the same
-observation statistics as plain numbers, what :class:`agents.residual.ResidualAgent` reads),
-``replay_buffer.pkl`` (SAC/TD3), ``state.json`` (timesteps, learning curve so far) and
-``manifest.json`` (size and SHA-256 of every file). It is written into a temporary directory
-that is renamed into place only once complete (``os.replace`` on the same filesystem), so an
-interrupted write never leaves a ``step_*`` directory; the oldest checkpoints beyond
-``keep_checkpoints`` are deleted only after a new one is in place. On ``--resume`` the newest
-checkpoint is verified against its manifest: a corrupt or half-written one is a clear error
-that names it and the previous (intact) checkpoint, which is left untouched.
+A checkpoint is a directory ``checkpoints/step_<timesteps>`` holding ``model.zip`` (sb3's
+format; for the JAX algorithms ``sbx-*`` the same zip with the flax parameters pickled in its
+``data`` entry instead of torch state dicts), ``vecnormalize.pkl`` (sb3's VecNormalize, for
+resuming), ``normalization.json`` (the same observation statistics as plain numbers, what
+:class:`agents.residual.ResidualAgent` reads), ``replay_buffer.pkl`` (the off-policy
+algorithms), ``state.json`` (timesteps, learning curve so far) and ``manifest.json`` (size and
+SHA-256 of every file). It is written into a temporary directory that is renamed into place
+only once complete (``os.replace`` on the same filesystem), so an interrupted write never
+leaves a ``step_*`` directory; the oldest checkpoints beyond ``keep_checkpoints`` are deleted
+only after a new one is in place. On ``--resume`` the newest checkpoint is verified against
+its manifest: a corrupt or half-written one is a clear error that names it and the previous
+(intact) checkpoint, which is left untouched.
 """
 
 from __future__ import annotations
@@ -37,20 +39,50 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+SB3_ALGOS = ("sac", "td3", "ppo")
+# the JAX implementations (sbx-rl): sb3's classes, API and model.zip, flax parameters inside
+SBX_ALGOS = ("sbx-sac", "sbx-ppo")
+JAX_EXTRA = 'pip install -e ".[jax]"'
+
+
+def sbx_module():
+    """The ``sbx`` package (imported on first use: JAX starts in seconds, not needed by sb3
+    runs); without it a ``ValueError`` that names the extra."""
+    try:
+        import sbx
+    except ImportError as exc:
+        raise ValueError(
+            f"--algo sbx-sac / sbx-ppo: the JAX implementation sbx-rl is not installed "
+            f"({type(exc).__name__}: {exc}); install the optional extra with {JAX_EXTRA}, or "
+            "use --algo sac / td3 / ppo (stable-baselines3)"
+        ) from None
+    return sbx
+
+
 def algo_class(algo: str):
+    """The model class of ``algo``: sb3's SAC, TD3, PPO, or sbx's SAC, PPO (``sbx-*``)."""
+    if algo in SBX_ALGOS:
+        sbx = sbx_module()
+        return {"sbx-sac": sbx.SAC, "sbx-ppo": sbx.PPO}[algo]
     from stable_baselines3 import PPO, SAC, TD3
 
     classes = {"sac": SAC, "td3": TD3, "ppo": PPO}
     if algo not in classes:
-        raise ValueError(f"algo: must be one of {', '.join(classes)}, got {algo!r}")
+        raise ValueError(f"algo: must be one of {', '.join(SB3_ALGOS + SBX_ALGOS)}, got {algo!r}")
     return classes[algo]
 
 
 def load_model(path, algo: str, *, env=None, device: str = "cpu"):
-    """An sb3 model from ``path`` (a .zip); a damaged file is a ``ValueError`` naming it."""
+    """An sb3 (or sbx, ``algo`` ``sbx-*``) model from ``path`` (a .zip); a damaged file is a
+    ``ValueError`` naming it, and so is an sbx model without the ``[jax]`` extra."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"model: no such file {path}")
+    if algo in SBX_ALGOS:
+        try:
+            sbx_module()
+        except ValueError as exc:
+            raise ValueError(f"model: {path} is an {algo} model (JAX); {exc}") from None
     try:
         return algo_class(algo).load(path, env=env, device=device)
     except (ValueError, FileNotFoundError):

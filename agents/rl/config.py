@@ -6,6 +6,8 @@ Defaults (documented choices, not tuned by a hyperparameter search — see the R
 
 - network: two hidden layers of 64 units (actor and critic), tanh-free ReLU MLPs as in sb3.
   Small enough for fast CPU updates on 2 cores and a model file far below 5 MB.
+- ``algo``: sb3's ``sac``, ``td3``, ``ppo``, or the JAX implementations ``sbx-sac`` and
+  ``sbx-ppo`` (sbx-rl, ``pip install -e ".[jax]"``) with the same hyperparameters.
 - ``n_envs``: 1 for SAC/TD3 (off-policy: one gradient step per env step; more envs add samples
   the updates cannot keep up with on 2 cores), 8 for PPO (on-policy: batches of
   n_envs × n_steps samples; with one fixed case the 8 envs are one compiled vectorised env).
@@ -46,7 +48,12 @@ from agents.residual_law import RESIDUAL_FRAMES
 from .families import check_families
 from .heldout import refuse_heldout
 
-ALGOS = ("sac", "td3", "ppo")
+ALGOS = ("sac", "td3", "ppo", "sbx-sac", "sbx-ppo")
+# the JAX implementations (sbx-rl, the optional extra ``pip install -e ".[jax]"``); the same
+# algorithms, model DIR and predict protocol as sb3's (docs/RESIDUAL_TRAINING.md, "JAX")
+JAX_ALGOS = ("sbx-sac", "sbx-ppo")
+# on-policy algorithms: rollouts of ppo_n_steps per env, no replay buffer
+ON_POLICY = ("ppo", "sbx-ppo")
 PATH_VARIETY = ("circles", "splines", "families")
 REWARD_SCALES = ("base", "fixed")
 CONFIG_FORMAT = "contour_env.train_config/1"
@@ -225,10 +232,12 @@ class TrainConfig:
             isinstance(gs, bool) or not isinstance(gs, int) or (gs < 1 and gs != -1)
         ):
             raise ValueError(f"gradient_steps: an integer >= 1 or -1, got {gs!r}")
-        if self.algo == "ppo" and (self.train_freq is not None or self.gradient_steps is not None):
+        if self.algo in ON_POLICY and (
+            self.train_freq is not None or self.gradient_steps is not None
+        ):
             raise ValueError(
-                "train_freq, gradient_steps: options of the off-policy algorithms (sac, td3), "
-                "not ppo"
+                "train_freq, gradient_steps: options of the off-policy algorithms (sac, td3, "
+                f"sbx-sac), not {self.algo}"
             )
         for key in (
             "n_envs", "batch_size", "action_repeat", "eval_freq", "checkpoint_freq", "train_freq",
@@ -276,7 +285,12 @@ class TrainConfig:
 
     @property
     def num_envs(self) -> int:
-        return self.n_envs or (8 if self.algo == "ppo" else 1)
+        return self.n_envs or (8 if self.on_policy else 1)
+
+    @property
+    def on_policy(self) -> bool:
+        """PPO (sb3's or sbx's): rollouts and epochs, no replay buffer."""
+        return self.algo in ON_POLICY
 
     @property
     def randomized(self) -> bool:

@@ -74,7 +74,7 @@ def format_models(rows: list[dict]) -> str:
     if not rows:
         return "no trained agents found"
     lines = [
-        f"{'name':22s} {'plant':15s} {'algo':5s} {'base':13s} {'timesteps':>10s}  "
+        f"{'name':22s} {'plant':15s} {'algo':7s} {'base':13s} {'timesteps':>10s}  "
         f"{'kept':16s} cases"
     ]
     for r in rows:
@@ -82,7 +82,7 @@ def format_models(rows: list[dict]) -> str:
             lines.append(f"{r['name']:22s} unreadable: {r['error']}")
             continue
         lines.append(
-            f"{r['name']:22s} {r['plant']:15s} {r['algo']:5s} {r['base']:13s} "
+            f"{r['name']:22s} {r['plant']:15s} {r['algo']:7s} {r['base']:13s} "
             f"{r['timesteps'] or 0:>10d}  {_kept(r.get('kept')):16s} {', '.join(r['cases'])}"
         )
     return "\n".join(lines)
