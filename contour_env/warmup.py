@@ -6,8 +6,8 @@ machine; afterwards they load from numba's on-disk cache in seconds. Two process
 cold at the same moment (the two workers of ``pytest -n 2``, two training runs) would each
 compile everything. :func:`warm` compiles every kernel exactly once, split over ``workers``
 processes, in two stages: the friction slow path that every other kernel calls (with the
-five-axis kernels alongside), then the env step (serial and parallel drivers) and the compiled
-controller runners, which load the slow path from the cache.
+five-axis kernels alongside), then the env step (the serial and the parallel driver, one part
+each) and the compiled controller runners, which load the slow path from the cache.
 
 ``contour-env warm [--workers N]`` runs it; the test suite's ``conftest.py`` runs it before the
 xdist workers start when the cache is cold.
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 # the parts, each a function compiling a group of kernels by running them briefly
-STAGES = (("plant", "five-axis"), ("env", "controllers", "batch", "residual"))
+STAGES = (("plant", "five-axis"), ("env", "env-parallel", "controllers", "batch", "residual"))
 
 
 def _plant() -> None:
@@ -56,23 +56,42 @@ def _five_axis() -> None:
 
 
 def _env() -> None:
-    # the serial driver (single env, small batches) and the parallel one (>= 256 envs)
+    # the serial driver (single env, small batches)
     import gymnasium as gym
 
     from . import ENV_ID
-    from .env.core import PARALLEL_MIN_ENVS
 
     env = gym.make(ENV_ID, case="hsm2-circle-II")
     env.reset(seed=0)
     for _ in range(3):
         env.step(np.zeros(env.action_space.shape, np.float32))
-    for n in (2, PARALLEL_MIN_ENVS):
-        venv = gym.make_vec(
-            ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", case="lm-circle3d"
-        )
-        venv.reset(seed=0)
-        for _ in range(3):
-            venv.step(np.zeros(venv.action_space.shape, np.float32))
+    _vector_steps(2, num_threads=1)
+
+
+def _env_parallel() -> None:
+    # the parallel driver (>= 256 envs on more than one thread): a part of its own, as each
+    # driver compiles the whole env step inline (about as long as the serial one)
+    from .env.core import PARALLEL_MIN_ENVS
+
+    _vector_steps(PARALLEL_MIN_ENVS, num_threads=2)
+
+
+def _vector_steps(n: int, num_threads: int) -> None:
+    import gymnasium as gym
+
+    from . import ENV_ID
+
+    venv = gym.make_vec(
+        ENV_ID,
+        num_envs=n,
+        vectorization_mode="vector_entry_point",
+        case="lm-circle3d",
+        num_threads=num_threads,
+    )
+    venv.reset(seed=0)
+    for _ in range(3):
+        venv.step(np.zeros(venv.action_space.shape, np.float32))
+    venv.close()
 
 
 def _controllers() -> None:
@@ -100,6 +119,7 @@ PARTS = {
     "plant": _plant,
     "five-axis": _five_axis,
     "env": _env,
+    "env-parallel": _env_parallel,
     "controllers": _controllers,
     "batch": _batch,
     "residual": _residual,

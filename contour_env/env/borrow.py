@@ -13,12 +13,24 @@ strides) whose reference count is absent, so the compiled code's increments and 
 are no-ops. Only for arrays that outlive the call using the view: the arguments of a compiled
 function called from Python (Python holds them for the whole call). The arithmetic is
 unchanged, so results are bit-identical.
+
+Borrow once per call, before the loop, and inline the per-env code into it
+(``inline="always"``): a null meminfo is then a constant and LLVM removes the increments and
+decrements altogether; a non-inlined function that receives the views as arguments still makes
+a call and a null check per array and env (issue 35: 1.6x slower).
+
+In a ``parallel=True`` function the parfor pass removes stores into an array that nothing
+reads afterwards unless the array aliases an argument; a call it does not know is taken for a
+new array (in the env step's ``prange`` over borrowed views every reward was lost). The view is
+therefore registered with numba's alias analysis as an alias of its argument (below), so the
+stores stay. The parallel env driver passes its arrays as they are all the same: numba's thread
+team receives them as raw buffers, with no reference count to save.
 """
 
 from __future__ import annotations
 
 from numba import types
-from numba.core import cgutils
+from numba.core import cgutils, ir_utils
 from numba.extending import intrinsic
 
 
@@ -45,3 +57,12 @@ def borrowed(typingctx, arr):
         return out._getvalue()
 
     return arr(arr), codegen
+
+
+def _alias_of_argument(lhs, args, alias_map, arg_aliases):
+    # numba's alias analysis (ir_utils.find_potential_aliases): ``lhs = borrowed(arr)`` makes
+    # lhs an alias of arr, as ``lhs = arr.reshape(...)`` does
+    ir_utils._add_alias(lhs, args[0].name, alias_map, arg_aliases)
+
+
+ir_utils.alias_func_extensions[(borrowed.__name__, __name__)] = _alias_of_argument

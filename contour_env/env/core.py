@@ -140,7 +140,7 @@ class StepThreads:
             prev = numba.get_num_threads()
             numba.set_num_threads(n)
             try:
-                result = K.env_step_parallel(n, *args)
+                result = K.env_step_parallel(*args)
             finally:
                 numba.set_num_threads(prev)
         if len(self.candidates) > 1:

@@ -347,120 +347,6 @@ def first_bad_action(action, active):
 
 
 @njit(cache=True)
-def _step_range(
-    lo,
-    hi,
-    active,
-    cfg,
-    icfg,
-    obs_tab,
-    z,
-    z2,
-    ax,
-    k,
-    eps,
-    est,
-    status,
-    seed,
-    ref_pav,
-    frame,
-    seg_type,
-    seg_data,
-    seg_bounds,
-    mat_T,
-    mat_h,
-    cont,
-    nl,
-    pidx,
-    action,
-    obs,
-    reward,
-    terminated,
-    truncated,
-    scratch,
-    info,
-):
-    # the active envs lo..hi-1 in order; returns (n_terminated, n_ended) among them
-    n_terminated = 0
-    n_ended = 0
-    for b in range(lo, hi):
-        if active[b]:
-            # two axes as a literal: the compiler unrolls the per-axis loops and
-            # interleaves the two axes (measured 1.1-2x faster); other axis counts take the
-            # generic body. Same arithmetic either way (no fast-math), so the results do not
-            # depend on the branch, the driver or the thread count.
-            if z.shape[1] == 2:
-                _step_one(
-                    2,
-                    b,
-                    cfg,
-                    icfg,
-                    obs_tab,
-                    z,
-                    z2,
-                    ax,
-                    k,
-                    eps,
-                    est,
-                    status,
-                    seed,
-                    ref_pav,
-                    frame,
-                    seg_type,
-                    seg_data,
-                    seg_bounds,
-                    mat_T,
-                    mat_h,
-                    cont,
-                    nl,
-                    pidx,
-                    action,
-                    obs,
-                    reward,
-                    terminated,
-                    truncated,
-                    scratch,
-                    info,
-                )
-            else:
-                _step_one(
-                    z.shape[1],
-                    b,
-                    cfg,
-                    icfg,
-                    obs_tab,
-                    z,
-                    z2,
-                    ax,
-                    k,
-                    eps,
-                    est,
-                    status,
-                    seed,
-                    ref_pav,
-                    frame,
-                    seg_type,
-                    seg_data,
-                    seg_bounds,
-                    mat_T,
-                    mat_h,
-                    cont,
-                    nl,
-                    pidx,
-                    action,
-                    obs,
-                    reward,
-                    terminated,
-                    truncated,
-                    scratch,
-                    info,
-                )
-            n_terminated += 1 if terminated[b] else 0
-            n_ended += 1 if terminated[b] or truncated[b] else 0
-    return n_terminated, n_ended
-
-
-@njit(cache=True)
 def env_step(
     cfg,
     icfg,
@@ -503,53 +389,135 @@ def env_step(
     action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (2 B, ns)
     (rows 2b, 2b + 1: work space of env b); info: the tuple of batched info arrays of
     :func:`fill_info`, filled for every stepped env (empty arrays: none).
+
+    Two axes are given to the step as a literal: the compiler unrolls the per-axis loops and
+    interleaves the two axes (measured 1.1-2x faster); other axis counts take the generic body.
+    Same arithmetic either way (no fast-math), so the results do not depend on the branch, the
+    driver or the thread count.
     """
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad, 0, 0
     # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
     z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
-    # borrowed views (no reference count; see contour_env.env.borrow): the per-env code then
-    # pays no atomic reference-count updates, as in the parallel driver's thread team
-    n_terminated, n_ended = _step_range(
-        0,
-        z.shape[0],
-        borrowed(active),
-        borrowed(cfg),
-        borrowed(icfg),
-        borrowed(obs_tab),
-        borrowed(z),
-        borrowed(z2),
-        borrowed(ax),
-        borrowed(k),
-        borrowed(eps),
-        borrowed(est),
-        borrowed(status),
-        borrowed(seed),
-        borrowed(ref_pav),
-        borrowed(frame),
-        borrowed(seg_type),
-        borrowed(seg_data),
-        borrowed(seg_bounds),
-        borrowed(mat_T),
-        borrowed(mat_h),
-        borrowed(cont),
-        borrowed(nl),
-        borrowed(pidx),
-        borrowed(action),
-        borrowed(obs),
-        borrowed(reward),
-        borrowed(terminated),
-        borrowed(truncated),
-        borrowed(scratch),
-        (borrowed(info[0]), borrowed(info[1]), borrowed(info[2]), borrowed(info[3])),
-    )
+    # borrowed views (no reference count; see contour_env.env.borrow), made once per call
+    # before the loop, with the per-env step inlined in the loop: the compiled step then has
+    # no reference-count update left at all (a null meminfo is a constant, so LLVM removes
+    # the increments and decrements), where a non-inlined per-env or per-chunk function
+    # received its arrays as arguments and paid a call and a check per array and env
+    # (issue 35: 1.6x slower)
+    cfg = borrowed(cfg)
+    icfg = borrowed(icfg)
+    obs_tab = borrowed(obs_tab)
+    z = borrowed(z)
+    ax = borrowed(ax)
+    k = borrowed(k)
+    eps = borrowed(eps)
+    est = borrowed(est)
+    status = borrowed(status)
+    seed = borrowed(seed)
+    ref_pav = borrowed(ref_pav)
+    frame = borrowed(frame)
+    seg_type = borrowed(seg_type)
+    seg_data = borrowed(seg_data)
+    seg_bounds = borrowed(seg_bounds)
+    mat_T = borrowed(mat_T)
+    mat_h = borrowed(mat_h)
+    cont = borrowed(cont)
+    nl = borrowed(nl)
+    pidx = borrowed(pidx)
+    action = borrowed(action)
+    active = borrowed(active)
+    obs = borrowed(obs)
+    reward = borrowed(reward)
+    terminated = borrowed(terminated)
+    truncated = borrowed(truncated)
+    scratch = borrowed(scratch)
+    z2 = borrowed(z2)
+    info = (borrowed(info[0]), borrowed(info[1]), borrowed(info[2]), borrowed(info[3]))
+    n_envs = z.shape[0]
+    n_axes = z.shape[1]
+    n_terminated = 0
+    n_ended = 0
+    if n_axes == 2:
+        for b in range(n_envs):
+            if active[b]:
+                _step_one(
+                    2,
+                    b,
+                    cfg,
+                    icfg,
+                    obs_tab,
+                    z,
+                    z2,
+                    ax,
+                    k,
+                    eps,
+                    est,
+                    status,
+                    seed,
+                    ref_pav,
+                    frame,
+                    seg_type,
+                    seg_data,
+                    seg_bounds,
+                    mat_T,
+                    mat_h,
+                    cont,
+                    nl,
+                    pidx,
+                    action,
+                    obs,
+                    reward,
+                    terminated,
+                    truncated,
+                    scratch,
+                    info,
+                )
+                n_terminated += 1 if terminated[b] else 0
+                n_ended += 1 if terminated[b] or truncated[b] else 0
+    else:
+        for b in range(n_envs):
+            if active[b]:
+                _step_one(
+                    n_axes,
+                    b,
+                    cfg,
+                    icfg,
+                    obs_tab,
+                    z,
+                    z2,
+                    ax,
+                    k,
+                    eps,
+                    est,
+                    status,
+                    seed,
+                    ref_pav,
+                    frame,
+                    seg_type,
+                    seg_data,
+                    seg_bounds,
+                    mat_T,
+                    mat_h,
+                    cont,
+                    nl,
+                    pidx,
+                    action,
+                    obs,
+                    reward,
+                    terminated,
+                    truncated,
+                    scratch,
+                    info,
+                )
+                n_terminated += 1 if terminated[b] else 0
+                n_ended += 1 if terminated[b] or truncated[b] else 0
     return -1, n_terminated, n_ended
 
 
 @njit(cache=True, parallel=True)
 def env_step_parallel(
-    n_chunks,
     cfg,
     icfg,
     obs_tab,
@@ -579,57 +547,100 @@ def env_step_parallel(
     scratch,
     info,
 ):
-    """As :func:`env_step`, with the envs cut into ``n_chunks`` contiguous chunks of nearly
-    equal size, spread over numba's threads (``numba.set_num_threads`` before the call sets how
-    many; the caller passes n_chunks = that number, so each thread gets one chunk: static
-    scheduling, one hand-off per call). Same arithmetic per env, so the results are
-    bit-identical to the serial driver whatever the thread count."""
+    """As :func:`env_step`, with the envs spread over numba's threads (``numba.set_num_threads``
+    before the call sets how many): a ``prange`` over the envs, which numba's static schedule
+    cuts into one contiguous block of nearly equal size per thread (one hand-off per call).
+    Same arithmetic per env, and each env's step reads and writes only its own rows, so the
+    results are bit-identical to the serial driver whatever the thread count (the two counts
+    returned are integer sums)."""
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad, 0, 0
+    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
     z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    # the arrays as they are, not borrowed: numba's thread team receives them as raw buffers,
+    # with no reference count to update (borrowed views measured no faster here; see
+    # contour_env.env.borrow on views in a prange). The step is inlined in the loop body, so
+    # the per-env code makes no call (issue 35: a non-inlined per-chunk function cost 1.6x)
     n_envs = z.shape[0]
-    n_chunks = max(1, min(n_chunks, n_envs))
-    counts = np.zeros((n_chunks, 2), dtype=np.int64)
-    for c in prange(n_chunks):
-        lo = (c * n_envs) // n_chunks
-        hi = ((c + 1) * n_envs) // n_chunks
-        nt, ne = _step_range(
-            lo,
-            hi,
-            active,
-            cfg,
-            icfg,
-            obs_tab,
-            z,
-            z2,
-            ax,
-            k,
-            eps,
-            est,
-            status,
-            seed,
-            ref_pav,
-            frame,
-            seg_type,
-            seg_data,
-            seg_bounds,
-            mat_T,
-            mat_h,
-            cont,
-            nl,
-            pidx,
-            action,
-            obs,
-            reward,
-            terminated,
-            truncated,
-            scratch,
-            info,
-        )
-        counts[c, 0] = nt
-        counts[c, 1] = ne
-    return -1, counts[:, 0].sum(), counts[:, 1].sum()
+    n_axes = z.shape[1]
+    n_terminated = 0
+    n_ended = 0
+    if n_axes == 2:
+        for b in prange(n_envs):
+            if active[b]:
+                _step_one(
+                    2,
+                    b,
+                    cfg,
+                    icfg,
+                    obs_tab,
+                    z,
+                    z2,
+                    ax,
+                    k,
+                    eps,
+                    est,
+                    status,
+                    seed,
+                    ref_pav,
+                    frame,
+                    seg_type,
+                    seg_data,
+                    seg_bounds,
+                    mat_T,
+                    mat_h,
+                    cont,
+                    nl,
+                    pidx,
+                    action,
+                    obs,
+                    reward,
+                    terminated,
+                    truncated,
+                    scratch,
+                    info,
+                )
+                n_terminated += 1 if terminated[b] else 0
+                n_ended += 1 if terminated[b] or truncated[b] else 0
+    else:
+        for b in prange(n_envs):
+            if active[b]:
+                _step_one(
+                    n_axes,
+                    b,
+                    cfg,
+                    icfg,
+                    obs_tab,
+                    z,
+                    z2,
+                    ax,
+                    k,
+                    eps,
+                    est,
+                    status,
+                    seed,
+                    ref_pav,
+                    frame,
+                    seg_type,
+                    seg_data,
+                    seg_bounds,
+                    mat_T,
+                    mat_h,
+                    cont,
+                    nl,
+                    pidx,
+                    action,
+                    obs,
+                    reward,
+                    terminated,
+                    truncated,
+                    scratch,
+                    info,
+                )
+                n_terminated += 1 if terminated[b] else 0
+                n_ended += 1 if terminated[b] or truncated[b] else 0
+    return -1, n_terminated, n_ended
 
 
 @njit(cache=True)

@@ -76,3 +76,25 @@ def test_the_serial_driver_equals_the_parallel_driver_bit_for_bit():
         venv.close()
     for x, y in zip(runs[0], runs[1], strict=True):
         np.testing.assert_array_equal(x, y)
+
+
+def test_stores_through_a_borrowed_view_stay_in_a_parallel_loop():
+    # the parfor pass removes stores into an array that nothing reads afterwards unless it
+    # aliases an argument: borrowed() is registered as such an alias (without it: all zeros)
+    from numba import prange
+
+    @njit(parallel=True)
+    def fill(a, b):
+        va = borrowed(a)
+        vb = borrowed(b)
+        for i in prange(va.shape[0]):
+            va[i] = i + 1.0
+            vb[i, 1] = 2.0 * i
+        return 0
+
+    a = np.zeros(1000)
+    b = np.zeros((1000, 3))
+    fill(a, b)
+    np.testing.assert_array_equal(a, np.arange(1, 1001))
+    np.testing.assert_array_equal(b[:, 1], 2.0 * np.arange(1000))
+    assert not b[:, 0].any() and not b[:, 2].any()

@@ -8,35 +8,71 @@ import pytest
 import contour_env
 from contour_env.env.core import PARALLEL_MIN_ENVS, StepThreads
 
+# (case, env options): two axes with stick–slip (the literal two-axis body), three axes (the
+# generic body: jee-triaxial, and the linear motor with its two-mass states and a tight
+# contour guard, so that its envs end too), and the friction table with encoder noise, a
+# random force and a random disturbance phase (the noise streams)
+CASES = [
+    ("hsm2-circle-II", {}),
+    ("jee-circle3d", {}),
+    ("lm-circle3d", {"structural_mode": True, "abort_contour_error_m": 2e-5}),
+    (
+        "sharp-corner",
+        {
+            "measurement_noise_std_m": 2e-7,
+            "disturbance_force_N": 5.0,
+            "disturbance_phase": "random",
+        },
+    ),
+]
 
-def _rollout(num_threads, n_envs=512, steps=60):
+
+def _rollout(num_threads, case="hsm2-circle-II", options=None, n_envs=512, steps=300):
+    """Every array a vector env returns over ``steps`` seeded random steps (guard terminations
+    and autoresets included), and its state at the end. ``num_threads="alternate"``: 1 and 2
+    threads in turns, step by step (the serial and the parallel driver within one episode)."""
+    alternate = num_threads == "alternate"
     venv = gym.make_vec(
         contour_env.ENV_ID,
         num_envs=n_envs,
         vectorization_mode="vector_entry_point",
-        num_threads=num_threads,
+        case=case,
+        num_threads=1 if alternate else num_threads,
+        **(options or {}),
     )
-    assert venv.unwrapped.core.num_threads == num_threads
+    core = venv.unwrapped.core
+    assert core.num_threads == (1 if alternate else num_threads)
     rng = np.random.default_rng(3)
     obs, _ = venv.reset(seed=7)
     out = [obs.copy()]
+    dim = venv.single_action_space.shape[0]
+    n_ended = 0
     for t in range(steps):
-        # large random actions for half the run: guard terminations and autoresets
-        amp = 1.0 if t < steps // 2 else 0.01
-        a = rng.uniform(-amp, amp, (n_envs, venv.single_action_space.shape[0]))
+        if alternate:
+            core.num_threads = 1 + t % 2
+        # large random actions in the first and the third quarter (guard terminations and
+        # autoresets), small ones between (a random walk around standstill: stick–slip)
+        amp = 1.0 if (4 * t // steps) % 2 == 0 else 0.01
+        a = rng.uniform(-amp, amp, (n_envs, dim))
         obs, reward, term, trunc, info = venv.step(a.astype(np.float32))
         out += [obs.copy(), reward.copy(), term.copy(), trunc.copy()]
         out += [np.asarray(v).copy() for _, v in sorted(info.items()) if not _.startswith("_")]
+        n_ended += int(np.sum(term | trunc))
+    out += [core.z.copy(), core.k.copy(), np.array([n_ended])]
     venv.close()
     return out
 
 
-def test_results_are_bit_identical_for_any_thread_count():
-    one = _rollout(1)
-    for other in (_rollout(2), _rollout("auto")):
-        assert len(one) == len(other)
-        for x, y in zip(one, other, strict=True):
-            np.testing.assert_array_equal(x, y)
+@pytest.mark.parametrize(("case", "options"), CASES, ids=[c for c, _ in CASES])
+def test_results_are_bit_identical_for_any_thread_count(case, options):
+    one = _rollout(1, case, options)
+    # some envs ended and were reset: the autoreset path is in the comparison
+    assert one[-1][0] > 0
+    for other in ("alternate", 2, "auto"):
+        two = _rollout(other, case, options)
+        assert len(one) == len(two)
+        for x, y in zip(one, two, strict=True):
+            np.testing.assert_array_equal(x, y, err_msg=f"num_threads={other!r}")
 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5, True, "two", [2]])
