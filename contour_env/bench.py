@@ -5,7 +5,11 @@ A shared machine's speed drifts by tens of per cent from second to second. So ea
 the median of ``repeats`` timing windows, and the windows of contour_env and of CartPole
 alternate: both see the same machine. Every window of contour_env covers whole episodes
 (start-up, cruise, reversals, stop), so no phase of the motion is over- or under-sampled. The
-JSON report keeps every window's rate.
+JSON report keeps every window's rate, and each figure's ratio to CartPole
+(``single_ratio_to_cartpole``; ``ratio_to_cartpole`` in a vector or the contended row): the
+median of the ratios of the window pairs, so a drift of the machine between pairs cancels.
+``scripts/check_speed_regression.py`` compares these ratios with the figures recorded in
+``docs/bench_reference.json``.
 
 A window lasts ``seconds / repeats`` or one whole episode, whichever is longer: at 4096 envs
 one episode of the default case is 8 M env-steps, so the full benchmark takes a minute or
@@ -92,6 +96,49 @@ def _alternate(ours, yardstick, repeats: int) -> tuple[list[float], list[float]]
     return a, b
 
 
+def pair_ratios(ours: list[float], theirs: list[float]) -> list[float]:
+    """The ratio of each window to the yardstick's window timed right after it."""
+    return [a / b for a, b in zip(ours, theirs, strict=True)]
+
+
+def machine_description() -> dict:
+    """What the figures were measured on: processor, cores, OS, Python and the libraries that
+    set the speed."""
+    import numba
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {
+        "cpu": cpu,
+        "cpu_count": os.cpu_count(),
+        "system": f"{platform.system()} {platform.release()} {platform.machine()}",
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "gymnasium": gym.__version__,
+    }
+
+
+def _code_version() -> dict:
+    from .benchmark.report import code_version
+
+    return code_version()
+
+
+def _load_average() -> list[float] | None:
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):  # not on every platform
+        return None
+
+
 def start_busy_process() -> subprocess.Popen:
     """A second process that keeps one core busy (a spinning Python loop), for the contended
     row; the caller kills it (:func:`stop_busy_process`)."""
@@ -131,12 +178,15 @@ def _vector_rows(case, n, actions, rng, window, repeats):
             lambda: _time_vector(cvenv, cacts, window),
             repeats,
         )
+        ratios = pair_ratios(ours, theirs)
         return {
             "num_envs": n,
             "env_steps_per_s": statistics.median(ours),
             "cartpole_env_steps_per_s": statistics.median(theirs),
+            "ratio_to_cartpole": statistics.median(ratios),
             "env_steps_per_s_runs": ours,
             "cartpole_env_steps_per_s_runs": theirs,
+            "ratio_to_cartpole_runs": ratios,
         }
 
     return venv, cvenv, measure, track
@@ -213,6 +263,11 @@ def run_bench(
         "quick": bool(quick),
         "python": platform.python_version(),
         "cpu_count": os.cpu_count(),
+        "machine": machine_description(),
+        "started": time.strftime("%Y-%m-%d %H:%M:%S %z"),
+        # the machine's load when the run started (1, 5, 15 min): a figure taken on a busy
+        # machine is not a reference (scripts/check_speed_regression.py --update refuses it)
+        "load_average_at_start": _load_average(),
     }
     env = gym.make(ENV_ID, case=case)
     actions = tracking_actions(case, env.unwrapped.core.n_steps - 1)
@@ -224,14 +279,18 @@ def run_bench(
         lambda: _time_single(cp, cp_actions, window),
         repeats,
     )
+    ratios = pair_ratios(ours, theirs)
     out["single_env_steps_per_s"] = statistics.median(ours)
     out["cartpole_single_steps_per_s"] = statistics.median(theirs)
+    out["single_ratio_to_cartpole"] = statistics.median(ratios)
     out["single_env_steps_per_s_runs"] = ours
     out["cartpole_single_steps_per_s_runs"] = theirs
+    out["single_ratio_to_cartpole_runs"] = ratios
     if progress:
         progress(
             f"single env: {out['single_env_steps_per_s']:,.0f} steps/s "
-            f"(CartPole {out['cartpole_single_steps_per_s']:,.0f})"
+            f"(CartPole {out['cartpole_single_steps_per_s']:,.0f}; "
+            f"ratio {out['single_ratio_to_cartpole']:.2f})"
         )
     out["vector"] = []
     if extra_envs is None:
@@ -285,6 +344,8 @@ def run_bench(
             [],
             "controller-in-the-loop rows not asked for",
         )
+    # the commit measured (taken last: ``git`` in a child process, nothing the timing needs)
+    out["code"] = _code_version()
     if progress:
         if out["controllers"]:
             for r in out["controllers"]:
@@ -302,7 +363,8 @@ def _vector_line(label: str, row: dict) -> str:
     return (
         f"{label}: {row['env_steps_per_s']:,.0f} env-steps/s "
         f"(windows {min(runs):,.0f}–{max(runs):,.0f}; "
-        f"CartPole {row['cartpole_env_steps_per_s']:,.0f})"
+        f"CartPole {row['cartpole_env_steps_per_s']:,.0f}; "
+        f"ratio {row['ratio_to_cartpole']:.2f})"
     )
 
 
@@ -355,13 +417,19 @@ def format_bench(res: dict) -> str:
     def spread(runs):
         return f"{min(runs) / 1e6:.2f}–{max(runs) / 1e6:.2f} M" if runs else ""
 
+    def ratio(value):
+        # the median of the windows' ratios to CartPole's (absent from older reports)
+        return f"{value:8.2f}" if value is not None else f"{'':8s}"
+
     lines = [
         f"case {res['case']}; actions: {res['action']}",
-        f"figures: {res.get('statistic', 'one window')} (window range in brackets)",
-        f"{'':28s}{'contour_env':>16s}{'':>16s}{'CartPole-v1':>16s}",
+        f"figures: {res.get('statistic', 'one window')} (window range in brackets); ratio: "
+        "the median of each window's ratio to the CartPole window timed after it",
+        f"{'':28s}{'contour_env':>16s}{'':>16s}{'CartPole-v1':>16s}{'ratio':>8s}",
         f"{'single env, steps/s':28s}{res['single_env_steps_per_s']:16,.0f}"
         f"{'(' + spread(res.get('single_env_steps_per_s_runs', [])) + ')':>16s}"
-        f"{res['cartpole_single_steps_per_s']:16,.0f}",
+        f"{res['cartpole_single_steps_per_s']:16,.0f}"
+        f"{ratio(res.get('single_ratio_to_cartpole'))}",
     ]
     for row in res["vector"]:
         lines.append(
@@ -369,6 +437,7 @@ def format_bench(res: dict) -> str:
             f"{row['env_steps_per_s']:16,.0f}"
             f"{'(' + spread(row.get('env_steps_per_s_runs', [])) + ')':>16s}"
             f"{row['cartpole_env_steps_per_s']:16,.0f}"
+            f"{ratio(row.get('ratio_to_cartpole'))}"
         )
     for row in res.get("exploration", []):
         lines.append(
@@ -384,6 +453,7 @@ def format_bench(res: dict) -> str:
             f"{row['env_steps_per_s']:16,.0f}"
             f"{'(' + spread(row['env_steps_per_s_runs']) + ')':>16s}"
             f"{row['cartpole_env_steps_per_s']:16,.0f}"
+            f"{ratio(row.get('ratio_to_cartpole'))}"
             f"  ratio to quiet {row['ratio_to_quiet']:.2f} "
             f"(CartPole {row['cartpole_ratio_to_quiet']:.2f})"
         )

@@ -663,7 +663,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="a first look in under 30 s: one 0.3 s window per figure, 1, 64 and 1024 envs "
         "(no 4096)",
     )
-    p.add_argument("--json", help="write the results as JSON to this file")
+    p.add_argument(
+        "--json",
+        help="write the results as JSON to this file: every window's rate and each figure's "
+        "ratio to CartPole (scripts/check_speed_regression.py compares them with "
+        "docs/bench_reference.json)",
+    )
     p.set_defaults(func=cmd_bench)
     p = sub.add_parser(
         "warm",

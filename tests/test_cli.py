@@ -69,6 +69,20 @@ def test_bench_small(tmp_path, monkeypatch):
         assert len(runs) == 3 and len(row["cartpole_env_steps_per_s_runs"]) == 3
         assert row["env_steps_per_s"] == sorted(runs)[1]
     assert len(res["single_env_steps_per_s_runs"]) == 3
+    # the ratios to CartPole: the median of the window pairs' ratios, stored in the JSON
+    pairs = [
+        a / b
+        for a, b in zip(
+            res["single_env_steps_per_s_runs"], res["cartpole_single_steps_per_s_runs"], strict=True
+        )
+    ]
+    assert res["single_ratio_to_cartpole"] == sorted(pairs)[1]
+    for row in res["vector"] + [res["contended"]]:
+        assert row["ratio_to_cartpole"] == sorted(row["ratio_to_cartpole_runs"])[1]
+        assert len(row["ratio_to_cartpole_runs"]) == 3
+    assert res["machine"]["cpu_count"] and "commit" in res["code"]
+    assert res["load_average_at_start"] is None or len(res["load_average_at_start"]) == 3
+    json.dumps(res, allow_nan=False)  # what --json writes
 
 
 def test_bench_controller_rows_quick():
