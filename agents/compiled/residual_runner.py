@@ -146,27 +146,57 @@ def _run_residual_chunk(
 class ResidualForm:
     """The compiled form of a bound :class:`agents.residual.ResidualAgent` whose base has one:
     ``run_single`` runs env 0 to the end of its episode, the network queried every
-    ``action_repeat`` periods from Python, the periods in between compiled."""
+    ``action_repeat`` periods from Python, the periods in between compiled.
+
+    The same loop in three pieces, for several parts run in lockstep with one network call
+    per agent step for all of them (:mod:`agents.compiled.residual_batch`): ``begin(core)``,
+    then per agent step ``view()`` (the raw agent observation, before normalisation) and
+    ``advance(a, n, recs)`` with the agent's action, until it reports the end."""
 
     def __init__(self, agent, base_form):
         self.agent = agent
         self.base_form = base_form
+        self._core = None
+
+    def begin(self, core) -> None:
+        agent = self.agent
+        self._core = core
+        self._args = self.base_form._core_args(core)
+        self._mask = np.ascontiguousarray(agent._axis_mask(), dtype=np.float64)
+        self._weights = np.ascontiguousarray(agent._weights, dtype=np.float64)
+        self._path_frame = agent.residual_frame == "path"
+
+    def view(self) -> np.ndarray:
+        """The agent's raw observation (1, obs_dim) at the current sample (before the
+        observation statistics)."""
+        core = self._core
+        return self.agent._view(core.obs[:1], core.signals_batch(), None)
+
+    def advance(self, a, n: int, recs) -> tuple:
+        """Hold the agent's action ``a`` (n_act,) for up to ``action_repeat`` periods from
+        recorded step ``n``; ``recs``: (time, contour error, position, reference, force)
+        arrays. Returns (n, bad, ended) as :func:`run_residual_chunk`."""
+        agent = self.agent
+        return run_residual_chunk(
+            *self._args, *recs, np.ascontiguousarray(a, dtype=np.float64), agent.scale,
+            self._mask, self._weights, self._path_frame, agent.gate, agent._v_rest, n,
+            agent.action_repeat,
+        )  # fmt: skip
+
+    def finish(self) -> None:
+        """Write the base controller's state back into it."""
+        self.base_form.store()
 
     def run_single(self, core, rec_time, rec_eps, rec_pos, rec_ref, rec_force) -> tuple:
         agent = self.agent
-        args = self.base_form._core_args(core)
-        mask = np.ascontiguousarray(agent._axis_mask(), dtype=np.float64)
-        weights = np.ascontiguousarray(agent._weights, dtype=np.float64)
-        path_frame = agent.residual_frame == "path"
+        self.begin(core)
+        recs = (rec_time, rec_eps, rec_pos, rec_ref, rec_force)
         n, bad, ended = 0, 0, 0
         while not (bad or ended):
             sig = core.signals_batch()
-            a = np.ascontiguousarray(agent.agent_action(core.obs[:1], sig, None)[0])
-            n, bad, ended = run_residual_chunk(
-                *args, rec_time, rec_eps, rec_pos, rec_ref, rec_force, a, agent.scale, mask,
-                weights, path_frame, agent.gate, agent._v_rest, n, agent.action_repeat,
-            )  # fmt: skip
-        self.base_form.store()
+            a = agent.agent_action(core.obs[:1], sig, None)[0]
+            n, bad, ended = self.advance(a, n, recs)
+        self.finish()
         return int(n), bool(bad)
 
 

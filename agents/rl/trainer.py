@@ -84,7 +84,7 @@ def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:
         "gamma": cfg.gamma,
         "policy_kwargs": {"net_arch": list(cfg.net_arch)},
     }
-    if cfg.algo in ("sac", "td3"):
+    if not cfg.on_policy:  # sac, td3, sbx-sac (sbx's SAC takes sb3's keywords)
         kw.update(
             buffer_size=cfg.buffer_size,
             learning_starts=cfg.learning_starts,
@@ -314,7 +314,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         venv.save(str(folder / "vecnormalize.pkl"))
         atomic_write_json(folder / "normalization.json", normalizer_of(venv).to_dict())
         atomic_write_json(folder / "agent.json", meta_now())
-        if with_buffer and cfg.algo != "ppo":
+        if with_buffer and not cfg.on_policy:
             model.save_replay_buffer(folder / "replay_buffer.pkl")
         atomic_write_json(
             folder / "state.json",
@@ -433,7 +433,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 if self.next_eval_s is not None:
                     self.next_eval_s = train_s() + cfg.eval_every_s
             if self.num_timesteps >= self.next_ckpt:
-                if cfg.algo == "ppo":
+                if cfg.on_policy:
                     self._checkpoint()
                 else:
                     # sb3's off-policy loop calls on_step before it stores the step's

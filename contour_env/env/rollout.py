@@ -117,9 +117,10 @@ def _bad_action(core) -> ValueError:
     )
 
 
-def try_compiled_episode(env, policy, seed: int) -> EpisodeRecord | None:
-    """Run the episode of ``run_episode(env, policy, seed=seed)`` compiled, or return None
-    (nothing done) when ``env`` or ``policy`` does not qualify."""
+def prepare_compiled_episode(env, policy, seed: int):
+    """``(core, form)`` with ``env`` reset to ``seed`` and ``policy`` bound and reset as the
+    first ``predict`` of :func:`contour_env.evaluation.run_episode` would, when the episode
+    can run compiled; None (nothing done) when ``env`` or ``policy`` does not qualify."""
     if policy is None or not callable(getattr(policy, "compiled_form", None)):
         return None
     base = plain_env(env)
@@ -135,11 +136,13 @@ def try_compiled_episode(env, policy, seed: int) -> EpisodeRecord | None:
     form = compiled_form_of(policy)
     if form is None:
         return None
-    core = base.core
-    rec = empty_record(core)
-    n, bad = form.run_single(
-        core, rec["time"], rec["contour_error"], rec["position"], rec["reference"], rec["force"]
-    )
+    return base.core, form
+
+
+def finish_compiled_episode(core, rec: dict, n: int, bad: bool) -> EpisodeRecord:
+    """The record of a compiled episode of env 0 of ``core`` that recorded ``n`` steps in
+    ``rec`` (:func:`empty_record`); ``bad``: the controller's action was not finite (a
+    ``ValueError``, as on the Python path)."""
     if bad:
         raise _bad_action(core)
     np.subtract(rec["reference"][:n], rec["position"][:n], out=rec["tracking_error"][:n])
@@ -148,3 +151,17 @@ def try_compiled_episode(env, policy, seed: int) -> EpisodeRecord | None:
 
     reason = TERMINATION_REASONS.get(status) if n > 0 else None
     return episode_record(core, rec, n, reason)
+
+
+def try_compiled_episode(env, policy, seed: int) -> EpisodeRecord | None:
+    """Run the episode of ``run_episode(env, policy, seed=seed)`` compiled, or return None
+    (nothing done) when ``env`` or ``policy`` does not qualify."""
+    ready = prepare_compiled_episode(env, policy, seed)
+    if ready is None:
+        return None
+    core, form = ready
+    rec = empty_record(core)
+    n, bad = form.run_single(
+        core, rec["time"], rec["contour_error"], rec["position"], rec["reference"], rec["force"]
+    )
+    return finish_compiled_episode(core, rec, n, bad)
