@@ -15,6 +15,9 @@ from .cli import _add_target_args, _print_metrics, _target_kwargs, gcode_file
 # algorithms are the JAX implementations, the optional extra pip install -e ".[jax]"
 ALGOS = ("sac", "td3", "ppo", "sbx-sac", "sbx-ppo")
 JAX_ALGOS = ("sbx-sac", "sbx-ppo")
+# the names of agents.rl.config.PRESETS (the keywords are read from there when one is used)
+PRESET_NAMES = ("ppo-256",)
+DEFAULT_TIMESTEPS = 20_000
 
 
 def _floats(text: str, name: str, n: int | None = None) -> tuple:
@@ -102,6 +105,19 @@ def config_from_args(args):
             ) from None
     if args.circle_radius:
         kw["circle_radius_m"] = _floats(args.circle_radius, "--circle-radius", 2)
+    # a preset fills what was not given; then the defaults of the options without one
+    if getattr(args, "preset", None):
+        from agents.rl.config import PRESETS
+
+        if args.preset not in PRESETS:
+            raise ValueError(f"--preset: unknown {args.preset!r}; known: {', '.join(PRESETS)}")
+        for key, value in PRESETS[args.preset].items():
+            if kw.get(key) is None:
+                kw[key] = value
+    if kw.get("algo") is None:
+        kw["algo"] = "sac"
+    if kw.get("timesteps") is None:
+        kw["timesteps"] = DEFAULT_TIMESTEPS
     return TrainConfig(**kw)
 
 
@@ -236,12 +252,23 @@ def add_rl_commands(sub) -> None:
     p.add_argument(
         "--algo",
         choices=ALGOS,
-        default="sac",
+        default=None,
         help="sb3 algorithm (default sac); sbx-sac, sbx-ppo: the JAX implementation sbx-rl "
         '(pip install -e ".[jax]")',
     )
     p.add_argument(
-        "--timesteps", type=int, default=20_000, help="agent steps in total (default 20000)"
+        "--preset",
+        choices=PRESET_NAMES,
+        default=None,
+        help="a named configuration; options given explicitly override its keys. ppo-256: "
+        "PPO on 256 envs of the compiled vector env (rollout, batch, epochs and learning rate "
+        "chosen by measurement; docs/RESIDUAL_TRAINING.md)",
+    )
+    p.add_argument(
+        "--timesteps",
+        type=int,
+        default=None,
+        help=f"agent steps in total (default {DEFAULT_TIMESTEPS}, or the preset's)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of every generator (default 0)")
     p.add_argument(

@@ -57,6 +57,24 @@ ON_POLICY = ("ppo", "sbx-ppo")
 PATH_VARIETY = ("circles", "splines", "families")
 REWARD_SCALES = ("base", "fixed")
 CONFIG_FORMAT = "contour_env.train_config/1"
+# the least training time (s, at the reference rate) between two evaluations by default
+EVAL_MIN_TRAIN_S = 30.0
+# named configurations (``contour-env train --preset NAME``): TrainConfig keywords that an
+# explicit option overrides. ppo-256: PPO on 256 envs of the compiled vector env, its rollout,
+# batch, epochs and learning rate chosen by measurement on lm-circle3d over CCC (README, "Time
+# to target"; docs/RESIDUAL_TRAINING.md), evaluated by training time (every 60 s: by steps,
+# 65,536 of them took minutes)
+PRESETS = {
+    "ppo-256": dict(
+        algo="ppo",
+        n_envs=256,
+        ppo_n_steps=64,
+        batch_size=4096,
+        ppo_n_epochs=5,
+        learning_rate=3e-4,
+        eval_every_s=60.0,
+    ),
+}
 # keys that may differ on --resume
 RESUMABLE_KEYS = ("timesteps", "time_budget_s", "eval_every_s")
 
@@ -135,6 +153,8 @@ class TrainConfig:
     # whatever timesteps says (None: no limit); the run then ends as at its last timestep
     time_budget_s: float | None = None
     ppo_n_steps: int = 256
+    # PPO: passes over each rollout (sb3's n_epochs)
+    ppo_n_epochs: int = 10
     # bookkeeping
     eval_freq: int | None = None
     # also evaluate whenever this much more training time (s) has passed (None: by timesteps
@@ -214,6 +234,7 @@ class TrainConfig:
         _int(self, "buffer_size", 1)
         _int(self, "learning_starts", 0)
         _int(self, "ppo_n_steps", 2)
+        _int(self, "ppo_n_epochs", 1)
         _int(self, "keep_checkpoints", 1)
         _int(self, "validation_paths", 0)
         _int(self, "torch_threads", 1)
@@ -310,7 +331,18 @@ class TrainConfig:
         return check_families(self.families, self.plant_name)
 
     def eval_every(self) -> int:
-        return self.eval_freq or max(1000, self.timesteps // 10)
+        """Agent steps between evaluations: ``eval_freq``, or a tenth of the run but at least
+        :data:`EVAL_MIN_TRAIN_S` seconds of training at the algorithm's reference rate on this
+        machine kind (:data:`agents.rl.progress.REFERENCE_STEPS_PER_S`): an evaluation (the
+        validation parts and the training cases, ~3–4 s on lm-circle3d's plant) then takes at
+        most ~10–15 % of the run's wall time. By steps, not by the clock, so that the same
+        configuration evaluates — and keeps — the same checkpoints on any machine."""
+        if self.eval_freq:
+            return self.eval_freq
+        from .progress import reference_rate
+
+        rate = reference_rate(self.algo, self.num_envs) or 0.0
+        return max(1000, self.timesteps // 10, int(EVAL_MIN_TRAIN_S * rate))
 
     def checkpoint_every(self) -> int:
         return self.checkpoint_freq or max(1000, self.timesteps // 5)

@@ -64,6 +64,7 @@ from .checkpoint import (
     write_checkpoint,
 )
 from .config import TrainConfig, load_config
+from .progress import EXPECT_AFTER_S, TargetWatch, budget_ends_first, expected_time_line
 from .schedule import AnnealedRate
 from .tasks import TaskSampler
 from .validation import BestKeeper, Validator, curve_point, validation_record
@@ -99,7 +100,9 @@ def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:
 
             kw["action_noise"] = NormalActionNoise(np.zeros(n_actions), 0.1 * np.ones(n_actions))
     else:
-        kw.update(n_steps=cfg.ppo_n_steps, batch_size=cfg.batch_size or 64)
+        kw.update(
+            n_steps=cfg.ppo_n_steps, batch_size=cfg.batch_size or 64, n_epochs=cfg.ppo_n_epochs
+        )
     return kw
 
 
@@ -226,6 +229,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     cfg = config
+    run_t0 = time.perf_counter()  # the run's wall clock (the evaluation share's denominator)
     check_output_dir(out_dir)  # a folder under a file, no permission: say so before training
     out = Path(out_dir)
     ckpt_root = out / "checkpoints"
@@ -301,8 +305,10 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         rate = AnnealedRate(cfg.learning_rate, cfg.learning_rate_final)
         model.learning_rate = rate
         model.lr_schedule = rate
+    t_scoring = time.perf_counter()
     evaluator = Evaluator(sampler, cfg) if sampler.nominal_tasks() else None
     validator = Validator(cfg) if cfg.validation_paths else None
+    base_scoring_s = time.perf_counter() - t_scoring  # the base on every scored part
     best = BestKeeper(out) if validator is not None else None
     _log_start(log, cfg, raw, evaluator, validator)
 
@@ -350,7 +356,14 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         "start": time.perf_counter(),
         "eval": 0.0,
         "prior": max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0),
+        # wall time (s) of the run so far, evaluations included, carried over a resume: the
+        # curves' "wall_s", what the time-to-target table reads (scripts/time_to_target.py)
+        "prior_wall": max((pt.get("wall_s", 0.0) for pt in curve + val_curve), default=0.0),
     }
+    watch = TargetWatch(evaluator.base_rms if evaluator is not None else None, curve, val_curve)
+
+    def wall_s() -> float:
+        return clock["prior_wall"] + (time.perf_counter() - run_t0)
 
     def write_curve(complete: bool) -> None:
         atomic_write_json(
@@ -370,6 +383,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         def __init__(self):
             super().__init__()
             self.bar = None
+            self.by_time = False
             last = max((pt["timesteps"] for pt in curve + val_curve), default=0)
             self.next_eval = last + cfg.eval_every()
             # by training time as well (eval_every_s), counted on from the last point
@@ -377,14 +391,37 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             self.next_eval_s = None if cfg.eval_every_s is None else last_s + cfg.eval_every_s
             self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
             self.ckpt_due = False
+            # the expected time, re-estimated from this run's own rate after EXPECT_AFTER_S
+            self.expect_at = train_s() + EXPECT_AFTER_S
+            self.start_steps = model.num_timesteps
+            self.start_s = train_s()
+
+        def say(self, msg: str) -> None:
+            """``log`` without breaking the progress bar's line."""
+            if self.bar is None:
+                log(msg)
+            else:
+                from tqdm import tqdm
+
+                with tqdm.external_write_mode():
+                    log(msg)
 
         def _on_training_start(self):
             if progress:
                 from tqdm import tqdm
 
-                self.bar = tqdm(
-                    total=cfg.timesteps, initial=self.num_timesteps, unit="step", desc="train"
-                )
+                self.by_time = budget_ends_first(cfg)
+                if self.by_time:  # the time budget ends the run: a bar of training seconds
+                    self.bar = tqdm(
+                        total=round(cfg.time_budget_s),
+                        initial=min(round(train_s()), round(cfg.time_budget_s)),
+                        unit="s",
+                        desc="train (s of training)",
+                    )
+                else:
+                    self.bar = tqdm(
+                        total=cfg.timesteps, initial=self.num_timesteps, unit="step", desc="train"
+                    )
 
         def _evaluate(self):
             shown = {}
@@ -405,6 +442,15 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                     val_ratio=f"{val_curve[-1]['score'] or float('inf'):.3g}",
                     kept="base" if best.kept_base else f"{best.score:.3g}",
                 )
+            # the wall time at which this evaluation's verdict was known (evaluations included)
+            now_wall = wall_s()
+            if evaluator is not None:
+                curve[-1]["wall_s"] = now_wall
+            if validator is not None:
+                val_curve[-1]["wall_s"] = now_wall
+            for msg in watch.update():
+                self.say(msg)
+            shown.update(watch.postfix())
             if self.bar is not None:
                 self.bar.set_postfix(**shown)
             if evaluator is not None:
@@ -415,8 +461,20 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
 
         def _on_step(self) -> bool:
             if self.bar is not None:
-                self.bar.update(self.num_timesteps - self.bar.n)
+                done = min(round(train_s()), self.bar.total) if self.by_time else self.num_timesteps
+                if done > self.bar.n:
+                    self.bar.update(done - self.bar.n)
             now_s = train_s()
+            if self.expect_at is not None and now_s >= self.expect_at:
+                self.expect_at = None
+                done = self.num_timesteps - self.start_steps
+                rate_now = done / max(now_s - self.start_s, 1e-9)
+                self.say(
+                    expected_time_line(
+                        cfg, rate_now, now_s, self.num_timesteps, measured=True,
+                        eval_s=base_scoring_s,
+                    )
+                )  # fmt: skip
             if cfg.time_budget_s is not None and now_s >= cfg.time_budget_s:
                 return False  # sb3 ends learn(); the run is finished as at its last step
             if rate is not None:
@@ -462,6 +520,11 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 self.bar.close()
 
     hooks = Hooks()
+    log(
+        expected_time_line(
+            cfg, None, train_s(), model.num_timesteps, measured=False, eval_s=base_scoring_s
+        )
+    )
     t0 = time.perf_counter()
     remaining = cfg.timesteps - model.num_timesteps
     model.learn(
@@ -473,6 +536,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     )
     wall = time.perf_counter() - t0
     ts = train_s()
+    t_final = time.perf_counter()
     # the final model (the last periodic evaluation may precede the last gradient steps)
     final_rms = None
     if evaluator is not None:
@@ -487,6 +551,13 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         # the final model, unless a periodic validation saw these timesteps (each point of the
         # curve is the score of the model kept for it)
         validate(ts)
+    final_eval_s = time.perf_counter() - t_final
+    if evaluator is not None:
+        curve[-1]["wall_s"] = wall_s()
+    if validator is not None and val_curve and "wall_s" not in val_curve[-1]:
+        val_curve[-1]["wall_s"] = wall_s()
+    for msg in watch.update():
+        log(msg)
     write_checkpoint(
         ckpt_root, model.num_timesteps, lambda d: write_files(d, True), cfg.keep_checkpoints
     )
@@ -499,11 +570,19 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     atomic_write_json(final_dir / "normalization.json", normalizer_of(venv).to_dict())
     atomic_write_json(final_dir / "agent.json", meta_now())
     venv.close()
+    # this session's wall time and the part of it spent scoring (the base at the start, the
+    # periodic and final evaluations and validations)
+    run_wall = time.perf_counter() - run_t0
+    eval_s = base_scoring_s + clock["eval"] + final_eval_s
     summary = {
         "out": str(out),
         "timesteps": int(model.num_timesteps),
         "wall_s": wall,
         "train_s": ts,
+        "run_wall_s": run_wall,
+        "eval_s": eval_s,
+        "eval_share": eval_s / run_wall if run_wall > 0 else 0.0,
+        "time_to_target": watch.record(),
         "base_rms_contour_error_um": evaluator.base_rms if evaluator is not None else None,
         "final_rms_contour_error_um": final_rms,
         "curve": curve,
@@ -517,6 +596,11 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         for tmp in root.glob(".tmp-*"):
             shutil.rmtree(tmp, ignore_errors=True)
     summary.pop("gcode")
+    log(
+        f"wall time {run_wall:.1f} s, of which evaluations {eval_s:.1f} s "
+        f"({summary['eval_share']:.1%}: the base scored at the start {base_scoring_s:.1f} s, "
+        f"periodic {clock['eval']:.1f} s, final {final_eval_s:.1f} s)"
+    )
     return summary
 
 
@@ -563,6 +647,9 @@ def _write_kept_model(out: Path, cfg, final_dir: Path, best, validator, val_curv
         "kept": kept,
         "final_timesteps": summary["timesteps"],
         "train_wall_s": summary["wall_s"],
+        "run_wall_s": summary["run_wall_s"],
+        "eval_share": summary["eval_share"],
+        "time_to_target": summary["time_to_target"],
         "base_rms_contour_error_um": summary["base_rms_contour_error_um"],
         "final_rms_contour_error_um": summary["final_rms_contour_error_um"],
         "validation_paths": cfg.validation_paths,
