@@ -308,3 +308,54 @@ def test_compiled_agent_with_fade_at_rest_equals_the_python_loop():
     rp = run_episode(gym.make(ENV_ID, **kw), agent, seed=1, compiled=False)
     np.testing.assert_array_equal(rc.contour_error, rp.contour_error)
     np.testing.assert_array_equal(rc.force, rp.force)
+
+
+@pytest.mark.parametrize(
+    "case_kw, frame, observe_axes",
+    [
+        (dict(case="lm-circle3d"), "path", True),
+        (dict(case="jee-circle3d"), "axes", True),
+        (dict(plant="friction-table", path=SHORT), "path", False),
+    ],
+)
+def test_compiled_agent_input_is_the_numpy_view_and_normaliser_to_the_bit(
+    case_kw, frame, observe_axes
+):
+    """agent_input (what the compiled evaluation builds per agent step) against
+    agent.norm(agent._view(...)) at every sample of an episode, with observation statistics
+    far from (0, 1); then the episodes through both paths are the same to the bit."""
+    from agents.compiled.residual_runner import agent_input
+
+    agent = _random_agent(case_kw, "ccc", frame, observe_axes=observe_axes, gain=3.0, gate=True)
+    n_obs = int(agent.meta["obs_dim"])
+    rng = np.random.default_rng(7)
+    agent.norm = ObsNormalizer(
+        rng.normal(0.0, 0.3, n_obs), rng.uniform(0.01, 4.0, n_obs), 5.0, 1e-8
+    )
+    env = gym.make(ENV_ID, **case_kw)
+    agent.bind(env)
+    env.reset(seed=3)
+    form = agent.compiled_form()
+    core = env.unwrapped.core
+    form.begin(core)
+    fast = form.input_args()
+    assert fast is not None
+    n, ended, checked = 0, 0, 0
+    from contour_env.env.rollout import empty_record
+
+    rec = empty_record(core)
+    recs = tuple(rec[k] for k in ("time", "contour_error", "position", "reference", "force"))
+    while not ended and checked < 400:
+        want = agent.norm(agent._view(core.obs[:1], core.signals_batch(), None))
+        agent_input(*fast)
+        np.testing.assert_array_equal(fast[-1], want)
+        a = rng.uniform(-1, 1, agent._actor(want).shape[1])
+        n, bad, ended = form.advance(a, n, recs)
+        assert not bad
+        checked += 1
+    form.finish()
+    assert checked == 400
+    rc = run_episode(gym.make(ENV_ID, **case_kw), agent, seed=1)
+    rp = run_episode(gym.make(ENV_ID, **case_kw), agent, seed=1, compiled=False)
+    np.testing.assert_array_equal(rc.contour_error, rp.contour_error)
+    np.testing.assert_array_equal(rc.force, rp.force)
