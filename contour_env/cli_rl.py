@@ -16,7 +16,11 @@ from .cli import _add_target_args, _print_metrics, _target_kwargs, gcode_file
 ALGOS = ("sac", "td3", "ppo", "sbx-sac", "sbx-ppo")
 JAX_ALGOS = ("sbx-sac", "sbx-ppo")
 # the names of agents.rl.config.PRESETS (the keywords are read from there when one is used)
-PRESET_NAMES = ("ppo-256",)
+PRESET_NAMES = ("sac-4", "ppo-256")
+# what contour-env train runs when neither --preset nor another --algo than sac is given: the
+# fastest configuration of the time-to-target table (README, "Time to target"); --preset none
+# for TrainConfig's own defaults (one env, one gradient step per transition)
+DEFAULT_PRESET = "sac-4"
 DEFAULT_TIMESTEPS = 20_000
 
 
@@ -106,12 +110,15 @@ def config_from_args(args):
     if args.circle_radius:
         kw["circle_radius_m"] = _floats(args.circle_radius, "--circle-radius", 2)
     # a preset fills what was not given; then the defaults of the options without one
-    if getattr(args, "preset", None):
+    preset = getattr(args, "preset", None)
+    if preset is None and kw.get("algo") in (None, "sac"):
+        preset = DEFAULT_PRESET
+    if preset is not None and preset != "none":
         from agents.rl.config import PRESETS
 
-        if args.preset not in PRESETS:
-            raise ValueError(f"--preset: unknown {args.preset!r}; known: {', '.join(PRESETS)}")
-        for key, value in PRESETS[args.preset].items():
+        if preset not in PRESETS:
+            raise ValueError(f"--preset: unknown {preset!r}; known: {', '.join(PRESETS)}, none")
+        for key, value in PRESETS[preset].items():
             if kw.get(key) is None:
                 kw[key] = value
     if kw.get("algo") is None:
@@ -258,11 +265,13 @@ def add_rl_commands(sub) -> None:
     )
     p.add_argument(
         "--preset",
-        choices=PRESET_NAMES,
+        choices=(*PRESET_NAMES, "none"),
         default=None,
-        help="a named configuration; options given explicitly override its keys. ppo-256: "
-        "PPO on 256 envs of the compiled vector env (rollout, batch, epochs and learning rate "
-        "chosen by measurement; docs/RESIDUAL_TRAINING.md)",
+        help="a named configuration; options given explicitly override its keys. sac-4 (the "
+        "default with SAC): 4 envs, 2 gradient steps per update of 4 transitions, the fastest "
+        "to target in the README's time-to-target table; ppo-256: PPO on 256 envs of the "
+        "compiled vector env (rollout, batch, epochs and learning rate chosen by measurement; "
+        "docs/RESIDUAL_TRAINING.md); none: TrainConfig's defaults (1 env)",
     )
     p.add_argument(
         "--timesteps",
@@ -281,7 +290,12 @@ def add_rl_commands(sub) -> None:
         action="store_true",
         help="continue the run in --out from its newest checkpoint (same configuration)",
     )
-    p.add_argument("--n-envs", type=int, default=None, help="envs (default 1 SAC/TD3, 8 PPO)")
+    p.add_argument(
+        "--n-envs",
+        type=int,
+        default=None,
+        help="envs (default 4 SAC: the sac-4 preset; 1 TD3, 8 PPO)",
+    )
     p.add_argument(
         "--time-budget",
         type=float,

@@ -65,13 +65,17 @@ EVAL_MIN_TRAIN_S = 30.0
 # to target"; docs/RESIDUAL_TRAINING.md), evaluated by training time (every 60 s: by steps,
 # 65,536 of them took minutes)
 PRESETS = {
+    # SB3 SAC on 4 envs (one compiled vector env on a fixed task), 2 gradient steps per update
+    # of 4 transitions: the fastest configuration of the time-to-target table to 0.70x CCC on
+    # lm-circle3d (README, "Time to target"); contour-env train's default for SAC
+    "sac-4": dict(algo="sac", n_envs=4, gradient_steps=2),
     "ppo-256": dict(
         algo="ppo",
         n_envs=256,
         ppo_n_steps=64,
         batch_size=4096,
         ppo_n_epochs=5,
-        learning_rate=3e-4,
+        learning_rate=1e-3,
         eval_every_s=60.0,
     ),
 }
@@ -331,7 +335,8 @@ class TrainConfig:
         return check_families(self.families, self.plant_name)
 
     def eval_every(self) -> int:
-        """Agent steps between evaluations: ``eval_freq``, or a tenth of the run but at least
+        """Agent steps between evaluations: ``eval_freq``, or a tenth of the run (of the steps
+        the time budget allows at the reference rate, when it ends the run first) but at least
         :data:`EVAL_MIN_TRAIN_S` seconds of training at the algorithm's reference rate on this
         machine kind (:data:`agents.rl.progress.REFERENCE_STEPS_PER_S`): an evaluation (the
         validation parts and the training cases, ~3–4 s on lm-circle3d's plant) then takes at
@@ -342,7 +347,11 @@ class TrainConfig:
         from .progress import reference_rate
 
         rate = reference_rate(self.algo, self.num_envs) or 0.0
-        return max(1000, self.timesteps // 10, int(EVAL_MIN_TRAIN_S * rate))
+        run = self.timesteps
+        if self.time_budget_s is not None and rate > 0:
+            # the steps the time budget is expected to allow, when it ends the run first
+            run = min(run, int(self.time_budget_s * rate))
+        return max(1000, run // 10, int(EVAL_MIN_TRAIN_S * rate))
 
     def checkpoint_every(self) -> int:
         return self.checkpoint_freq or max(1000, self.timesteps // 5)

@@ -1,10 +1,11 @@
 """What ``contour-env train`` tells while it runs: the expected time, and the time to target.
 
-**Expected time.** Before training, :func:`expected_time_line` estimates the run's length from
-reference rates of agent steps per second (:data:`REFERENCE_STEPS_PER_S`, measured on this
-2-core machine kind on ``lm-circle3d`` by ``scripts/time_to_target.py``; the README's "Time to
-target" table) and the number of evaluations; after :data:`EXPECT_AFTER_S` seconds of training
-it says it again from the run's own rate.
+**Expected time.** Before training, :func:`expected_time_line` estimates the run's training
+time from reference rates of agent steps per second (:data:`REFERENCE_STEPS_PER_S`, measured
+on this 2-core machine kind on ``lm-circle3d`` by ``scripts/time_to_target.py``; the README's
+"Time to target" table); at the first evaluation after :data:`EXPECT_AFTER_S` seconds of
+training (or at the end of the budget) it says it again from the run's own rate, with the
+evaluations' time from the one just made.
 
 **Time to target.** :class:`TargetWatch` reads the curves as they grow and records, in wall
 time (evaluations included, the time at which the run *knew*), training time and timesteps,
@@ -32,18 +33,16 @@ TARGET_RATIO = 0.70
 # seconds of training after which the expected time is re-estimated from the run's own rate
 EXPECT_AFTER_S = 30.0
 # agent steps per second of training time (evaluations excluded) by (algo, n_envs), measured
-# on this 2-core machine kind on lm-circle3d over CCC (scripts/time_to_target.py, 2026-12-05;
-# README "Time to target"); other envs counts scale from the nearest measured one
+# on this 2-core machine kind on lm-circle3d over CCC, one core, 10 minutes each
+# (scripts/time_to_target.py, 2026-12-05; README "Time to target"); another envs count takes
+# the nearest measured one's rate; an algorithm not measured (td3) has none
 REFERENCE_STEPS_PER_S = {
-    ("sac", 1): 170.0,
-    ("sac", 4): 90.0,
-    ("td3", 1): 250.0,
-    ("ppo", 8): 2000.0,
-    ("ppo", 256): 20000.0,
-    ("sbx-sac", 1): 290.0,
-    ("sbx-sac", 4): 500.0,
-    ("sbx-ppo", 8): 2000.0,
-    ("sbx-ppo", 256): 20000.0,
+    ("sac", 1): 173.0,
+    ("sac", 4): 404.0,  # 2 gradient steps per update of 4 transitions (the sac-4 preset)
+    ("sbx-sac", 1): 304.0,
+    ("sbx-sac", 4): 713.0,  # 4 gradient steps per update
+    ("ppo", 256): 46_000.0,  # the ppo-256 preset (scripts/ppo_preset.py)
+    ("sbx-ppo", 256): 46_000.0,  # not measured apart: sb3 PPO's figure
 }
 
 KEYS = ("validation_base_level", "validation_eligible", "training_tasks_target")
@@ -114,9 +113,16 @@ def expected_time_line(
         what = f"{_minutes(budget)} of training (the time budget ends it first)"
     else:
         what = f"{_minutes(by_steps)} of training for {left:,} more timesteps"
-    extra = ""
-    if eval_s is not None and by_steps is not None:
-        n_eval = math.ceil(left / cfg.eval_every()) + 1
+    if eval_s is None:
+        extra = ", plus the evaluations (timed at the first one)"
+    else:
+        train_time = (
+            by_steps if budget is None or (by_steps is not None and by_steps < budget) else budget
+        )
+        n_eval = math.ceil(left / cfg.eval_every()) if by_steps is not None else 0
+        if cfg.eval_every_s is not None:
+            n_eval = max(n_eval, math.ceil(train_time / cfg.eval_every_s))
+        n_eval += 1  # the final one
         extra = f", plus about {_minutes(n_eval * eval_s)} for {n_eval} evaluations"
     return f"expected time: {what}{extra} ({src})"
 

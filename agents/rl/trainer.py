@@ -391,7 +391,8 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             self.next_eval_s = None if cfg.eval_every_s is None else last_s + cfg.eval_every_s
             self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
             self.ckpt_due = False
-            # the expected time, re-estimated from this run's own rate after EXPECT_AFTER_S
+            # the expected time, said again at the first evaluation after EXPECT_AFTER_S s of
+            # training, from this run's own rate and evaluation time
             self.expect_at = train_s() + EXPECT_AFTER_S
             self.start_steps = model.num_timesteps
             self.start_s = train_s()
@@ -451,6 +452,15 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             for msg in watch.update():
                 self.say(msg)
             shown.update(watch.postfix())
+            if self.expect_at is not None and ts >= min(self.expect_at, cfg.time_budget_s or 1e300):
+                self.expect_at = None
+                rate_now = (self.num_timesteps - self.start_steps) / max(ts - self.start_s, 1e-9)
+                self.say(
+                    expected_time_line(
+                        cfg, rate_now, ts, self.num_timesteps, measured=True,
+                        eval_s=time.perf_counter() - t_in,
+                    )
+                )  # fmt: skip
             if self.bar is not None:
                 self.bar.set_postfix(**shown)
             if evaluator is not None:
@@ -465,16 +475,6 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 if done > self.bar.n:
                     self.bar.update(done - self.bar.n)
             now_s = train_s()
-            if self.expect_at is not None and now_s >= self.expect_at:
-                self.expect_at = None
-                done = self.num_timesteps - self.start_steps
-                rate_now = done / max(now_s - self.start_s, 1e-9)
-                self.say(
-                    expected_time_line(
-                        cfg, rate_now, now_s, self.num_timesteps, measured=True,
-                        eval_s=base_scoring_s,
-                    )
-                )  # fmt: skip
             if cfg.time_budget_s is not None and now_s >= cfg.time_budget_s:
                 return False  # sb3 ends learn(); the run is finished as at its last step
             if rate is not None:
@@ -520,11 +520,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
                 self.bar.close()
 
     hooks = Hooks()
-    log(
-        expected_time_line(
-            cfg, None, train_s(), model.num_timesteps, measured=False, eval_s=base_scoring_s
-        )
-    )
+    log(expected_time_line(cfg, None, train_s(), model.num_timesteps, measured=False))
     t0 = time.perf_counter()
     remaining = cfg.timesteps - model.num_timesteps
     model.learn(

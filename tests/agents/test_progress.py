@@ -97,6 +97,11 @@ def test_expected_time_from_the_reference_rate_then_the_budget(gcode):
     assert "reference rate of sac with 1 env(s)" in line
     n_eval = 17_000 // cfg.eval_every() + 1
     assert f"for {n_eval} evaluations" in line
+    assert f"about {n_eval * 2.0 / 60:.1f} min for" in line
+    # before any evaluation: their time is not guessed
+    assert "plus the evaluations (timed at the first one)" in expected_time_line(
+        cfg, None, 0.0, 0, measured=False
+    )
     # a time budget shorter than the steps: the budget says it
     cfg_b = TrainConfig(
         gcode=(gcode,), algo="sac", **{**TINY, "timesteps": 10**7}, time_budget_s=90
@@ -157,8 +162,16 @@ def test_a_preset_fills_what_was_not_given_and_options_override_it():
         assert getattr(cfg, key) == value, key
     cfg = cli_rl.config_from_args(_args(preset="ppo-256", n_envs=64, learning_rate=1e-3))
     assert cfg.n_envs == 64 and cfg.learning_rate == 1e-3 and cfg.algo == "ppo"
-    plain = cli_rl.config_from_args(_args())
-    assert plain.algo == "sac" and plain.timesteps == cli_rl.DEFAULT_TIMESTEPS
+    # no preset, SAC or no --algo: the default preset, the table's fastest to target
+    for algo in (None, "sac"):
+        d = cli_rl.config_from_args(_args(algo=algo))
+        assert (d.algo, d.n_envs, d.gradient_steps) == ("sac", 4, 2)
+        assert d.timesteps == cli_rl.DEFAULT_TIMESTEPS
+    assert PRESETS[cli_rl.DEFAULT_PRESET] == dict(algo="sac", n_envs=4, gradient_steps=2)
+    # another algorithm, or --preset none: TrainConfig's own defaults
+    assert cli_rl.config_from_args(_args(algo="td3")).n_envs is None
+    plain = cli_rl.config_from_args(_args(preset="none"))
+    assert (plain.algo, plain.n_envs, plain.gradient_steps) == ("sac", None, None)
     with pytest.raises(ValueError, match="--preset: unknown"):
         cli_rl.config_from_args(_args(preset="nope"))
 
