@@ -119,7 +119,9 @@ def expected_time_line(
         train_time = (
             by_steps if budget is None or (by_steps is not None and by_steps < budget) else budget
         )
-        n_eval = math.ceil(left / cfg.eval_every()) if by_steps is not None else 0
+        # the steps the run will make: all that are left, or what the budget allows
+        steps = left if train_time is by_steps else (rate or 0.0) * train_time
+        n_eval = math.ceil(steps / cfg.eval_every()) if rate else 0
         if cfg.eval_every_s is not None:
             n_eval = max(n_eval, math.ceil(train_time / cfg.eval_every_s))
         n_eval += 1  # the final one

@@ -3,6 +3,7 @@ wall time), the expected time, the evaluation share of the run's wall time, and 
 
 import argparse
 import json
+import math
 
 import pytest
 
@@ -108,6 +109,9 @@ def test_expected_time_from_the_reference_rate_then_the_budget(gcode):
     )
     line = expected_time_line(cfg_b, 100.0, 30.0, 3000, measured=True)
     assert "1.0 min of training (the time budget ends it first)" in line
+    # evaluations: over the steps the budget allows (60 s x 100/s), not the 10^7 timesteps
+    line = expected_time_line(cfg_b, 100.0, 30.0, 3000, measured=True, eval_s=1.0)
+    assert f"for {math.ceil(6000 / cfg_b.eval_every()) + 1} evaluations" in line
     assert "100 agent steps/s measured over this run's first 30 s" in line
 
 
