@@ -50,6 +50,12 @@ def main(argv=None) -> int:
     if bad or not names:
         print(f"error: --variants: unknown {bad}; known: {', '.join(VARIANTS)}", file=sys.stderr)
         return 2
+    if args.validation_paths < 1 or not (args.budget > 0 and args.eval_every > 0):
+        print(
+            "error: --validation-paths: >= 1; --budget, --eval-every: seconds > 0",
+            file=sys.stderr,
+        )
+        return 2
     out = Path(args.out)
     base_rms = base_score()
     target = TARGET_RATIO * base_rms

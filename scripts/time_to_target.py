@@ -53,8 +53,9 @@ BASE = "ccc"
 CONFIGS = {
     # SB3 SAC on one env, one gradient step per agent step (sb3's default)
     "sac-1": dict(algo="sac"),
-    # SB3 SAC on 4 envs (one compiled vector env), 2 gradient steps per 4 transitions
-    "sac-4": dict(algo="sac", n_envs=4, gradient_steps=2),
+    # SB3 SAC on 4 envs (one compiled vector env), 2 gradient steps per 4 transitions: the
+    # sac-4 preset, contour-env train's default
+    "sac-4": dict(PRESETS["sac-4"]),
     # PPO on 256 envs of the compiled vector env: the ppo-256 preset (agents/rl/config.py)
     "ppo-256": dict(PRESETS["ppo-256"]),
     # sbx SAC (JAX) on one env, one gradient step per agent step

@@ -19,7 +19,6 @@ from agents.rl.progress import (
 )
 from contour_env import cli_rl
 
-SHORT = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"
 TINY = dict(
     plant="friction-table",
     timesteps=300,
@@ -32,13 +31,6 @@ TINY = dict(
     net_arch=(16, 16),
     validation_paths=1,
 )
-
-
-@pytest.fixture(scope="module")
-def gcode(tmp_path_factory):
-    p = tmp_path_factory.mktemp("gcode") / "short.nc"
-    p.write_text(SHORT)
-    return str(p)
 
 
 def _pt(t, rms=None, score=None, eligible=False, wall=None, ratios=None):

@@ -43,13 +43,6 @@ def _jax():
 
 
 @pytest.fixture(scope="module")
-def gcode(tmp_path_factory):
-    p = tmp_path_factory.mktemp("gcode") / "short.nc"
-    p.write_text(SHORT)
-    return str(p)
-
-
-@pytest.fixture(scope="module")
 def sbx_sac_run(tmp_path_factory, gcode):
     _jax()
     out = tmp_path_factory.mktemp("runs") / "sbx-sac"

@@ -34,13 +34,6 @@ TINY = dict(
 
 
 @pytest.fixture(scope="module")
-def gcode(tmp_path_factory):
-    p = tmp_path_factory.mktemp("gcode") / "short.nc"
-    p.write_text(SHORT)
-    return str(p)
-
-
-@pytest.fixture(scope="module")
 def sac_run(tmp_path_factory, gcode):
     out = tmp_path_factory.mktemp("runs") / "sac"
     cfg = TrainConfig(gcode=(gcode,), algo="sac", **TINY)

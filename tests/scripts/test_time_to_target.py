@@ -68,3 +68,5 @@ def test_ppo_preset_variants_run_and_unknown_ones_are_refused(tmp_path, capsys):
     rec = json.loads((tmp_path / "ppo_preset.json").read_text())
     assert [r["keywords"]["learning_rate"] for r in rec["runs"]] == [3e-4, 1e-3]
     assert mod.main(["--variants", "nope", "--out", str(tmp_path)]) == 2
+    assert mod.main(["--validation-paths", "0", "--out", str(tmp_path)]) == 2
+    assert "--validation-paths: >= 1" in capsys.readouterr().err
