@@ -140,6 +140,7 @@ class AdaptiveCCCController(Controller):
     """
 
     name = "adaptive-ccc"
+    COMPILED_LAW = "adaptive-ccc"
     # command-line parameters (``adaptive-ccc:gamma=0``; :mod:`agents.parameters`)
     PARAMETERS = {
         "w": Param(
@@ -322,13 +323,6 @@ class AdaptiveCCCController(Controller):
         acc, vel = signals["reference_acceleration"], signals["reference_velocity"]
         cols = [acc, vel] + ([np.sign(vel)] if self.friction else [])
         return np.stack(cols, axis=1)
-
-    def compiled_form(self):
-        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
-        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
-        from .compiled import compiled_form
-
-        return compiled_form(self)
 
     def act(self, signals: dict) -> np.ndarray:
         n = self.n_axes

@@ -14,15 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contour_env.env.core import signals_to_batch
-
-
-def _core_of(env):
-    for candidate in (env, getattr(env, "unwrapped", None)):
-        core = getattr(candidate, "core", None)
-        if core is not None:
-            return candidate, core
-    raise ValueError("env: expected a contour_env env (single, wrapped or vectorised)")
+from contour_env.env.core import core_of, signals_to_batch
 
 
 class Controller:
@@ -53,12 +45,10 @@ class Controller:
         five-axis env binds the five-axis class of the same spec instead (``pd`` → Chen
         2022's joint PD; a name without one, e.g. ``ccc``, is a ValueError) and forwards
         :meth:`predict`, :meth:`command`, :meth:`action` and :meth:`reset` to it."""
-        holder, core = _core_of(env)
+        holder, core = core_of(env)
         family = getattr(core.setup, "family", None)
         if family == "five-axis" and self.plant_family != family:
-            from .registry import five_axis_counterpart
-
-            self._five_axis = five_axis_counterpart(self).bind(env)
+            self._five_axis = self._five_axis_counterpart().bind(env)
             self._core, self._single = self._five_axis._core, self._five_axis._single
             self.n_envs = self._five_axis.n_envs
             return self
@@ -92,6 +82,27 @@ class Controller:
         # the controller's own computation delay (samples) is a property of the servo
         # hardware its designer knows, not a plant uncertainty
         self.computation_delay_steps = int(plant.params.computation_delay)
+
+    def _five_axis_counterpart(self) -> Controller:
+        """The five-axis controller of the spec this one was made from: the factory
+        :func:`agents.make_controller` left on it (``_five_axis_factory``); ValueError for a
+        controller built directly."""
+        factory = getattr(self, "_five_axis_factory", None)
+        if factory is None:
+            raise ValueError(
+                f"controller {self.name!r} ({type(self).__name__}, built directly) is a "
+                "feed-drive controller; for the five-axis plant build it with "
+                f"agents.make_controller({self.name!r}, plant_family='five-axis')"
+            )
+        return factory()
+
+    def compiled_form(self):
+        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
+        (no compiled law for this exact class, or not bound). ``act`` stays the reference the
+        compiled law follows."""
+        from .compiled import compiled_form
+
+        return compiled_form(self)
 
     def configure(self) -> None:
         """Derive gains from the bound plant (called by :meth:`bind`)."""

@@ -69,6 +69,8 @@ class CCCController(PDController):
     """
 
     name = "ccc"
+    COMPILED_LAW = "ccc"
+    CORNER_TURN_RAD = CORNER_TURN_RAD  # the compiled law reads it here
     # command-line parameters (``ccc:wp=3e4:wd=20``; :mod:`agents.parameters`)
     PARAMETERS = {
         **PDController.PARAMETERS,

@@ -56,15 +56,16 @@ def bound_controller(name: str, env, model=None):
     when the agent was trained for another plant or number of axes)."""
     check_controllers([name])
     if name != RESIDUAL:
-        from .base import _core_of
+        from contour_env.env.core import core_of
 
-        family = getattr(_core_of(env)[1].setup, "family", None)
+        family = getattr(core_of(env)[1].setup, "family", None)
         return make_controller(name, plant_family=family).bind(env)
-    from .base import _core_of
+    from contour_env.env.core import core_of
+
     from .residual import ResidualAgent
     from .rl.models import shipped_model_for
 
-    _, core = _core_of(env)
+    _, core = core_of(env)
     model_dir = model if model is not None else shipped_model_for(core.setup.plant.name)
     return ResidualAgent(model_dir).bind(env)
 

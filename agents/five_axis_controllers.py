@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Controller, _core_of, per_axis
+from contour_env.env.core import core_of
+
+from .base import Controller, per_axis
 from .ismc import PAPER_ISMC_GAINS, PAPER_PD_GAINS, EquivalentErrorISMC, JointPD
 from .parameters import AXES, BOOL, FLOAT, Param
 
@@ -25,7 +27,7 @@ class _FiveAxisController(Controller):
     plant_family = "five-axis"
 
     def bind(self, env) -> Controller:
-        _, core = _core_of(env)
+        _, core = core_of(env)
         self._setup = core.setup
         return super().bind(env)
 

@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from contour_env.env.core import core_of
 from contour_env.io import atomic_write_bytes
 
-from .base import Controller, _core_of
+from .base import Controller
 from .parameters import INT, Param
 from .pd import DEFAULT_BANDWIDTH_RAD_S, PDController
 from .qfilter import (
@@ -166,7 +167,7 @@ class LearningController(Controller):
         """Attach to an env. A learning state (learned or loaded) must have been learned on
         the same case, path, length and batch size: otherwise ``ValueError`` and the state is
         left untouched."""
-        _, core = _core_of(env)
+        _, core = core_of(env)
         if self.u_ff is not None:
             self._check_fingerprint(fingerprint_of(core), "env")
             if self.u_ff.shape[0] not in (1, core.n_envs):

@@ -9,7 +9,7 @@ from .parameters import AXES, Param
 
 # Axial P gain and cross-coupling proportional gain (C_I = 2.62 C_P, C_D = 0.02 C_P, the
 # paper's §3 ratios), chosen from the realistic-plant design chart (Jee Fig. 5,
-# contour_env.analysis.jee_chart.design(realistic=True); `contour-env stability
+# contour_env.app.jee_chart.design(realistic=True); `contour-env stability
 # --cross-coupling`), not by simulation: admissible gains are those with gain margin ≥ 6 dB and
 # phase margin ≥ 30° on the realistic plant (one-period computation delay, masses ±20 %;
 # agents.margins.loop_margins gives GM 6.2 dB, PM 30.3° here). No admissible point meets the
@@ -42,6 +42,7 @@ class JeeCCCController(Controller):
     """
 
     name = "jee-ccc"
+    COMPILED_LAW = "jee-ccc"
     # command-line parameters (``jee-ccc:kp=8``; :mod:`agents.parameters`)
     PARAMETERS = {
         # the drive takes a K-normalised velocity command (m): K_P and C_P are dimensionless
@@ -76,13 +77,6 @@ class JeeCCCController(Controller):
             self._sum[mask] = 0.0
             self._prev[mask] = 0.0
             self._started[mask] = False
-
-    def compiled_form(self):
-        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
-        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
-        from .compiled import compiled_form
-
-        return compiled_form(self)
 
     def act(self, signals: dict) -> np.ndarray:
         E = signals["reference_position"] - signals["measured_position"]

@@ -41,6 +41,7 @@ class PDController(Controller):
     """
 
     name = "pd"
+    COMPILED_LAW = "pd"  # agents.compiled.forms: the compiled law of this exact class
     # command-line parameters (``pd:w=80``; :mod:`agents.parameters`)
     PARAMETERS = {
         "w": Param(
@@ -75,13 +76,6 @@ class PDController(Controller):
             if self._D_user is None
             else per_axis("D", self._D_user, n)
         )
-
-    def compiled_form(self):
-        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
-        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
-        from .compiled import compiled_form
-
-        return compiled_form(self)
 
     def act(self, signals: dict) -> np.ndarray:
         e = signals["reference_position"] - signals["measured_position"]

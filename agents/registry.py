@@ -7,6 +7,10 @@ the parameters after the name are the short names of the class's ``PARAMETERS`` 
 
 from __future__ import annotations
 
+import functools
+
+from contour_env.env.core import core_of
+
 from .adaptive_ccc import AdaptiveCCCController
 from .ccc import CCCController
 from .five_axis_controllers import FiveAxisPDController, ISMCController
@@ -116,9 +120,7 @@ def format_controllers() -> str:
 def plant_family_of(env) -> str | None:
     """The plant family of a contour_env env (single, wrapped or vectorised): ``"five-axis"``
     for the five-axis machine, None for the feed-drive plants."""
-    from .base import _core_of
-
-    return getattr(_core_of(env)[1].setup, "family", None)
+    return getattr(core_of(env)[1].setup, "family", None)
 
 
 def make_controller(name: str, *, plant_family: str | None = None, env=None, **kwargs):
@@ -141,7 +143,9 @@ def make_controller(name: str, *, plant_family: str | None = None, env=None, **k
             )
         plant_family = family
     ctrl = _make(name, plant_family, kwargs)
-    ctrl._spec = (name, dict(kwargs))  # for Controller.bind's five-axis counterpart
+    ctrl._spec = (name, dict(kwargs))
+    # Controller.bind builds the five-axis class of this spec through it on a five-axis env
+    ctrl._five_axis_factory = functools.partial(five_axis_counterpart, ctrl)
     return ctrl
 
 

@@ -18,9 +18,9 @@ from collections.abc import Callable
 import numpy as np
 
 from contour_env.env import kernel as K
+from contour_env.env.core import core_of
 from contour_env.metrics import score
 
-from .base import _core_of
 from .trial import TrialRecord
 
 # An iteration counts as "error growing" (:func:`error_growing`) when its RMS contour error
@@ -90,7 +90,7 @@ def run_trial(env, controller, *, seed: int = 0) -> TrialRecord:
     crash guard is marked invalid from there on (in the vector env it is not stepped into
     its next episode: the run stops when every env has ended).
     """
-    holder, core = _core_of(env)
+    holder, core = core_of(env)
     vector = hasattr(holder, "num_envs")
     B, A, N = core.n_envs, core.dim, core.n_steps - 1
     if getattr(controller, "_core", None) is not core:
@@ -228,7 +228,7 @@ def run_batch(
         raise ValueError(f"iterations: must be an integer >= 1, got {iterations!r}")
     if iterations < 1:
         raise ValueError(f"iterations: must be an integer >= 1, got {iterations}")
-    _, core = _core_of(env)
+    _, core = core_of(env)
     if getattr(controller, "_core", None) is not core:
         controller.bind(env)
     keep = {(i if i > 0 else iterations + 1 + i) for i in keep_trials}

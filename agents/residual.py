@@ -61,7 +61,9 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorWrapper
 from gymnasium.vector.utils import batch_space
 
-from .base import Controller, _core_of
+from contour_env.env.core import core_of
+
+from .base import Controller
 from .registry import FIVE_AXIS_CONTROLLERS, controller_names, make_controller, plant_family_of
 from .residual_law import (
     REST_FADE_FEED_FRACTION,
@@ -368,7 +370,7 @@ class ResidualWrapper(gym.Wrapper):
         observe_axes=False,
         fade_at_rest=False,
     ):
-        holder, core = _core_of(env)
+        holder, core = core_of(env)
         if hasattr(holder, "num_envs"):
             raise ValueError("env: a vectorised env; use ResidualVectorWrapper")
         super().__init__(env)
@@ -454,7 +456,7 @@ class ResidualVectorWrapper(VectorWrapper):
         observe_axes=False,
         fade_at_rest=False,
     ):
-        holder, core = _core_of(env)
+        holder, core = core_of(env)
         if not hasattr(holder, "num_envs"):
             raise ValueError("env: a single env; use ResidualWrapper")
         super().__init__(env)
@@ -670,7 +672,7 @@ class ResidualAgent(Controller):
         self._view = None
 
     def bind(self, env) -> ResidualAgent:
-        _, core = _core_of(env)
+        _, core = core_of(env)
         plant = core.setup.plant
         want_plant, want_axes = self.meta["plant"], int(self.meta["n_axes"])
         if plant.n_axes != want_axes:

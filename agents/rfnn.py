@@ -158,6 +158,8 @@ class RFNNController(PDController):
     """
 
     name = "rfnn"
+    COMPILED_LAW = "rfnn"
+    INPUT_LIMIT, THETA_LIMIT = INPUT_LIMIT, THETA_LIMIT  # the compiled law reads them here
     recurrent = True
     PARAMETERS = {
         **PDController.PARAMETERS,
@@ -304,13 +306,6 @@ class RFNNController(PDController):
             self.w[sel] = self.w0_N
             self.theta[sel] = self.theta0
 
-    def compiled_form(self):
-        """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
-        (a subclass, or not bound). ``act`` stays the reference the compiled law follows."""
-        from .compiled import compiled_form
-
-        return compiled_form(self)
-
     def network(self, x: np.ndarray, memory: np.ndarray, theta: np.ndarray, w: np.ndarray):
         """One forward pass (eqs. 5–7) for inputs ``x`` (..., 2) (normalised), the memory
         O(k−1) and θ (..., 2, R), the weights w (..., R). Returns (y (...), ψ (..., R),
@@ -388,6 +383,7 @@ class FNNController(RFNNController):
     of RFNN without feedback layer"): u_ij = x_i, only the rule weights w learn."""
 
     name = "fnn"
+    COMPILED_LAW = "rfnn"  # the RFNN law with θ = 0 and no recurrence
     recurrent = False
     PARAMETERS = {
         k: v for k, v in RFNNController.PARAMETERS.items() if k not in ("lr_theta", "theta0")

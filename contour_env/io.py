@@ -53,7 +53,7 @@ def apply_default_mode(path, directory: bool | None = None) -> None:
 class OutputPathError(ValueError):
     """An output path that cannot be written (its folder is a file, it names a folder, no
     permission, ...). ``path`` is the path as given; the message names the path and why;
-    ``contour_env.cli.main`` adds the option that gave it."""
+    ``contour_env.app.cli.main`` adds the option that gave it."""
 
     def __init__(self, path, reason: str):
         self.path = path

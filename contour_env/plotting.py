@@ -44,6 +44,7 @@ import numpy as np  # noqa: E402
 from .contour_error import nearest_points  # noqa: E402
 from .io import atomic_save_figure  # noqa: E402
 from .metrics import EpisodeRecord, format_um  # noqa: E402
+from .paths.geometry import path_polyline  # noqa: E402  (re-exported: drawn points of a path)
 
 # the largest drawn deviation (of a run the env did not stop) is at most this fraction of the
 # path's size
@@ -102,13 +103,6 @@ def _as3(points) -> np.ndarray:
 
 def _fmt_vec(v) -> str:
     return "(" + ", ".join(f"{x:.3g}" if abs(x) > 5e-13 else "0" for x in v) + ")"
-
-
-def path_polyline(path, n: int = 4000) -> np.ndarray:
-    """Points of the path for drawing, (m, 3) m: ``n`` evenly spaced in arc length plus every
-    segment junction (so that sharp corners are drawn sharp)."""
-    s = np.union1d(np.linspace(0.0, path.total_length, int(n)), path.seg_s0)
-    return path.evaluate(np.append(s, path.total_length))["position"]
 
 
 def _plane_normal(path, pts: np.ndarray) -> np.ndarray | None:

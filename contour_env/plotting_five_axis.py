@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 
 from .io import atomic_save_figure  # noqa: E402
 from .metrics import EpisodeRecord  # noqa: E402
-from .plotting import path_polyline  # noqa: E402
+from .paths.geometry import path_polyline  # noqa: E402
 
 ARCSEC_PER_RAD = 180.0 / np.pi * 3600.0
 # floor of the log axes: errors below it (an exact start) are drawn at it

@@ -211,7 +211,7 @@ def run_bench_json(extra: list[str]) -> dict:
     """Run ``contour-env bench --json`` in a child process and read its report."""
     with tempfile.TemporaryDirectory() as d:
         out = Path(d) / "bench.json"
-        cmd = [sys.executable, "-m", "contour_env.cli", "bench", "--json", str(out), *extra]
+        cmd = [sys.executable, "-m", "contour_env.app.cli", "bench", "--json", str(out), *extra]
         print("running:", " ".join(cmd[2:]), flush=True)
         subprocess.run(cmd, check=True, cwd=ROOT)
         return json.loads(out.read_text(encoding="utf-8"))

@@ -4,8 +4,8 @@ For every named plant and every controller that applies to it: the default gains
 controller computes them for that plant, and the worst gain/phase margin of its loops on the
 realistic plant over the ±20 % mass corners (agents.margins), and with the two-mass mode
 where the plant has one. These are the ``design`` runs of ``contour-env benchmark --suite
-readme`` (:mod:`contour_env.benchmark.design`), run here and rendered as the README renders
-them (:func:`contour_env.benchmark.readme_tables.controller_table`).
+readme`` (:mod:`contour_env.app.benchmark.design`), run here and rendered as the README renders
+them (:func:`contour_env.app.benchmark.readme_tables.controller_table`).
 
 Usage: ``python scripts/controller_table.py [--workers N]`` (markdown on stdout; about a
 minute).
@@ -16,8 +16,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from contour_env.benchmark.readme_tables import controller_table, run_records
-from contour_env.benchmark.suite import README_TABLES
+from contour_env.app.benchmark.readme_tables import controller_table, run_records
+from contour_env.app.benchmark.suite import README_TABLES
 
 
 def rows(workers: int = 1) -> list[str]:

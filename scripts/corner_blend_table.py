@@ -9,19 +9,19 @@ mean over seeds 0..N−1 of the max and RMS contour error (µm), the range of th
 effort per axis (N). Each episode is a ``nominal`` run of ``contour-env benchmark`` with that
 seed (the ``readme`` suite has these runs), the same scoring as ``contour-env compare --case
 corner-blend --seed N``; the table is
-:func:`contour_env.benchmark.readme_tables.corner_blend_table`, as in the README.
+:func:`contour_env.app.benchmark.readme_tables.corner_blend_table`, as in the README.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from contour_env.benchmark.readme_tables import (
+from contour_env.app.benchmark.readme_tables import (
     corner_blend_markdown,
     corner_blend_rows,
     run_records,
 )
-from contour_env.benchmark.suite import nominal
+from contour_env.app.benchmark.suite import nominal
 
 CASE = "corner-blend"
 

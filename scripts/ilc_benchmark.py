@@ -36,7 +36,7 @@ import contour_env  # noqa: F401  (registers the env)
 from agents import make_controller
 from agents.registry import LEARNING_CONTROLLERS
 from agents.repeated_batch import run_batch
-from contour_env.benchmark.readme_tables import ilc_markdown as format_markdown
+from contour_env.app.benchmark.readme_tables import ilc_markdown as format_markdown
 from contour_env.cases import get_case
 from contour_env.io import atomic_write_json
 from contour_env.metrics import below_count, encoder_resolution_um, format_um

@@ -3,10 +3,10 @@
 Prints a markdown table (the README's is this output): max / RMS contour error (µm), the RMS
 ratio to PD, and RMS effort (x torque in N m through the lead ℓ, y force in N) for ``pd``,
 ``ccc`` (our PID cross-coupling), ``ccc:wi=0`` (the proportional form Lee benchmarks) and
-``adaptive-ccc``, next to the published figures (``contour_env/benchmark/published.py``). The
+``adaptive-ccc``, next to the published figures (``contour_env/app/benchmark/published.py``). The
 papers' numbers come from the real HSM2; what should carry over is the ordering and a similar
 ratio between controllers. The runs are the ``nominal`` runs of ``contour-env benchmark
---suite readme``, rendered by :func:`contour_env.benchmark.readme_tables.lee2012_table`.
+--suite readme``, rendered by :func:`contour_env.app.benchmark.readme_tables.lee2012_table`.
 
 Usage: ``python scripts/lee2012_table.py [--cases hsm2-circle-I,...]``.
 """
@@ -16,8 +16,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from contour_env.benchmark.readme_tables import lee2012_table, run_records
-from contour_env.benchmark.suite import LEE2012_CASES, PAPER_NOMINAL, nominal
+from contour_env.app.benchmark.readme_tables import lee2012_table, run_records
+from contour_env.app.benchmark.suite import LEE2012_CASES, PAPER_NOMINAL, nominal
 
 CONTROLLERS = PAPER_NOMINAL[LEE2012_CASES[0]]  # pd, ccc:wi=0, ccc, adaptive-ccc
 

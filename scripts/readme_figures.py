@@ -4,12 +4,12 @@
         [--report DIR | --out DIR [--workers N]]
 
 The tables come from the records of ``contour-env benchmark --suite readme`` (the ``readme``
-suite runs exactly what the tables need, :data:`contour_env.benchmark.suite.README_TABLES`):
+suite runs exactly what the tables need, :data:`contour_env.app.benchmark.suite.README_TABLES`):
 without ``--report`` the script runs ``contour-env benchmark --suite readme --out DIR
 [--workers N]`` first (``DIR`` default ``out/readme-report``; with ``--only``, the suite
 ``readme:NAME[,NAME...]`` of those tables' runs only), with ``--report DIR`` it reads the
 ``results.json`` of an earlier run. Each table is rendered from the records
-(:mod:`contour_env.benchmark.readme_tables`; a run the report lacks, or one that failed, is an
+(:mod:`contour_env.app.benchmark.readme_tables`; a run the report lacks, or one that failed, is an
 error). Each generated table sits between two HTML comments (invisible on GitHub)::
 
     <!-- BEGIN generated: NAME (scripts/readme_figures.py; DATE, commit HASH) -->
@@ -58,8 +58,8 @@ REPORT_DIR = ROOT / "out" / "readme-report"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from contour_env.benchmark import readme_tables  # noqa: E402
-from contour_env.benchmark.suite import README_TABLES  # noqa: E402
+from contour_env.app.benchmark import readme_tables  # noqa: E402
+from contour_env.app.benchmark.suite import README_TABLES  # noqa: E402
 
 MARKER = re.compile(
     r"(?P<begin><!-- BEGIN generated: (?P<name>[\w-]+)(?P<stamp>[^\n]*?)-->\n)"
@@ -75,7 +75,7 @@ SOURCE: dict = {"report": None, "out": REPORT_DIR, "workers": 1, "only": None, "
 def run_benchmark(out, tables=None, workers=1) -> dict:
     """``contour-env benchmark --suite readme[:TABLES] --out OUT --workers N``; its
     results.json. A failed run is a ``RuntimeError``."""
-    from contour_env import cli_benchmark
+    from contour_env.app import cli_benchmark
 
     suite = "readme" if tables is None else "readme:" + ",".join(tables)
     argv = ["--suite", suite, "--out", str(out), "--workers", str(workers)]

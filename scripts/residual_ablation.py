@@ -41,7 +41,7 @@ VARIANTS = {
 def _command(plant, base, timesteps, seed, variant, out, extra=()) -> list[str]:
     v = VARIANTS[variant]
     cmd = [
-        sys.executable, "-m", "contour_env.cli", "train", "--plant", plant, "--paths",
+        sys.executable, "-m", "contour_env.app.cli", "train", "--plant", plant, "--paths",
         "families", "--base", base, "--algo", "sac", "--timesteps", str(timesteps),
         "--eval-freq", str(max(1, timesteps // 8)),
         "--seed", str(seed), "--residual-frame", v["residual_frame"], "--observe-axes",

@@ -6,7 +6,7 @@ For every model DIR (default: the shipped agents, ``contour-env models``) and ev
 contour of its plant, the agent and its base are scored with the project's one scoring
 function (:func:`contour_env.evaluation.evaluate`, seed 0) and the ratios printed:
 RMS contour error agent / base, and RMS effort agent / base per axis (the effort budget is
-+10 %). Test contours (:func:`contour_env.benchmark.residual.test_targets`):
++10 %). Test contours (:func:`contour_env.app.benchmark.residual.test_targets`):
 
 - the agent's training cases (``agent.json``), and for ``hsm2`` all three Lee 2012 circles;
 - ``polygon``: the 40 mm square with four sharp 90° corners (``contour_env/data/
@@ -16,7 +16,7 @@ RMS contour error agent / base, and RMS effort agent / base per axis (the effort
 
 Neither the polygon nor the spline is a training path of the shipped agents (they are trained
 on circles), so these rows measure generalisation. The scoring is
-:mod:`contour_env.benchmark.residual`, the ``residual`` runs of ``contour-env benchmark
+:mod:`contour_env.app.benchmark.residual`, the ``residual`` runs of ``contour-env benchmark
 --suite readme``, from whose report the README's table is rendered the same way
 (:func:`format_markdown`).
 """
@@ -28,8 +28,8 @@ from pathlib import Path
 
 import contour_env  # noqa: F401  (registers the env)
 from agents.rl.models import list_models
-from contour_env.benchmark.readme_tables import residual_markdown as format_markdown
-from contour_env.benchmark.residual import (  # noqa: F401  (this script's API)
+from contour_env.app.benchmark.readme_tables import residual_markdown as format_markdown
+from contour_env.app.benchmark.residual import (  # noqa: F401  (this script's API)
     EFFORT_FLOOR_N,
     SPLINE_POINTS,
     SPLINE_SIZE_M,

@@ -1,7 +1,7 @@
 """Shared fixtures: the project's scripts (``scripts/*.py``, not a package) loaded as modules.
 
 Before the xdist workers of ``pytest -n N`` (N >= 2) start on a cold numba cache (a fresh
-clone, or kernels changed), the kernels are compiled once by :func:`contour_env.warmup.warm`,
+clone, or kernels changed), the kernels are compiled once by :func:`contour_env.app.warmup.warm`,
 split over N processes: otherwise every worker compiles all of them at the same time."""
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ def pytest_configure(config):
     n = getattr(config.option, "numprocesses", None)
     if not isinstance(n, int) or n < 2:
         return
-    from contour_env import warmup
+    from contour_env.app import warmup
 
     if warmup.cache_is_cold():
         # not the batched controller runner: its parallel loop alone compiles for minutes

@@ -105,7 +105,7 @@ def test_a_cam_polyline_with_1_degree_bends_runs_near_its_programmed_feed_in_g64
 
 
 def test_cli_run_prints_the_program_summary(capsys):
-    from contour_env.cli import main
+    from contour_env.app.cli import main
 
     program = CORPUS[0]
     assert main(["run", "--plant", "hsm2", "--gcode", str(program), "--controller", "pd"]) == 0

@@ -12,7 +12,7 @@ from contour_env.cases import CASES, build_setup, case_facts
 
 
 def test_gym_make_without_arguments_is_the_default_case_the_cli_uses():
-    from contour_env import cli
+    from contour_env.app import cli
 
     assert contour_env.DEFAULT_CASE == "hsm2-circle-II"
     assert cli.DEFAULT_CASE is contour_env.DEFAULT_CASE
@@ -83,7 +83,7 @@ def test_the_other_notes_keep_their_wording_with_computed_numbers():
 
 
 def test_bench_quick_is_one_short_window_without_4096_envs():
-    from contour_env.bench import QUICK_EXTRA_ENVS, QUICK_SIZES, format_bench, run_bench
+    from contour_env.app.speed import QUICK_EXTRA_ENVS, QUICK_SIZES, format_bench, run_bench
 
     # the exploration and contended rows at 64 envs here (1024 in the real --quick)
     res = run_bench("hsm2-circle-III", quick=True, sizes=(1,), extra_envs=64, controllers=False)

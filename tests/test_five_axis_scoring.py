@@ -16,7 +16,7 @@ from agents.compare import compare
 from agents.five_axis_controllers import FiveAxisPDController, ISMCController
 from agents.pd import PDController
 from contour_env import ENV_ID
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.evaluation import evaluate, run_episode
 
 

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from contour_env import ENV_ID
+from contour_env.app.cli import main
 from contour_env.cases import build_setup
-from contour_env.cli import main
 from contour_env.contour_error import nearest_points, true_contour_error
 from contour_env.env.render import render_figure
 from contour_env.metrics import EpisodeRecord

@@ -117,7 +117,7 @@ def test_the_bash_blocks_use_contour_env():
 
 @pytest.mark.parametrize("sub", sorted({c[0] for c in BASH_COMMANDS}))
 def test_every_subcommand_of_the_bash_blocks_has_help(sub):
-    from contour_env.cli import build_parser
+    from contour_env.app.cli import build_parser
 
     with contextlib.redirect_stdout(io.StringIO()), pytest.raises(SystemExit) as exc:
         build_parser().parse_args([sub, "-h"])
@@ -126,7 +126,7 @@ def test_every_subcommand_of_the_bash_blocks_has_help(sub):
 
 @pytest.mark.parametrize("args", BASH_COMMANDS, ids=[" ".join(c)[:60] for c in BASH_COMMANDS])
 def test_every_contour_env_command_of_the_bash_blocks_parses(args):
-    from contour_env.cli import build_parser
+    from contour_env.app.cli import build_parser
 
     err = io.StringIO()
     try:
@@ -138,7 +138,7 @@ def test_every_contour_env_command_of_the_bash_blocks_parses(args):
 
 
 def test_the_quick_bench_of_the_readme_parses_with_its_short_settings():
-    from contour_env.cli import build_parser
+    from contour_env.app.cli import build_parser
 
     ns = build_parser().parse_args(["bench", "--quick"])
     assert ns.quick and ns.seconds is None and ns.repeats is None

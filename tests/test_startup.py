@@ -21,7 +21,7 @@ def _loaded_after(code: str) -> dict:
 
 
 def test_compare_imports_no_filter_design_plotting_or_splines():
-    loaded = _loaded_after("import agents.compare, contour_env.cli")
+    loaded = _loaded_after("import agents.compare, contour_env.app.cli")
     assert loaded == {m: False for m in HEAVY}
 
 

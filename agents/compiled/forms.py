@@ -64,10 +64,8 @@ def _pd_fp(c) -> np.ndarray:
 
 
 def _ccc_fp(c) -> np.ndarray:
-    from ..ccc import CORNER_TURN_RAD
-
     limit = float(np.min(c.force_limit / c.mass)) / max(c.W_i, 1e-300)
-    return _f(c.P, c.D, c.W_p, c.W_i, c.W_d, c.mass, limit, np.cos(CORNER_TURN_RAD))
+    return _f(c.P, c.D, c.W_p, c.W_i, c.W_d, c.mass, limit, np.cos(c.CORNER_TURN_RAD))
 
 
 def _ccc_st(c) -> np.ndarray:
@@ -129,15 +127,13 @@ def _jee_store(c, st) -> None:
 
 
 def _rfnn_fp(c) -> np.ndarray:
-    from ..rfnn import INPUT_LIMIT, THETA_LIMIT
-
     return _f(
         c.P,
         c.D,
         c.alpha,
         c.inv_input_scale,
-        INPUT_LIMIT,
-        THETA_LIMIT,
+        c.INPUT_LIMIT,
+        c.THETA_LIMIT,
         c.w_max,
         c.k_w,
         c.k_theta,
@@ -179,37 +175,33 @@ _PATCHABLE = ("act", "command", "action", "predict", "reset", "configure")
 
 def compiled_form(controller) -> CompiledForm | None:
     """The compiled form of a bound ``pd``, ``ccc``, ``adaptive-ccc``, ``jee-ccc``, ``rfnn`` or
-    ``fnn`` (exact classes), or None for any other policy."""
-    from ..adaptive_ccc import AdaptiveCCCController
-    from ..ccc import CCCController
-    from ..jee_ccc import JeeCCCController
-    from ..pd import PDController
-    from ..rfnn import FNNController, RFNNController
-
-    cls = type(controller)
-    if getattr(controller, "_core", None) is None:
+    ``fnn``, or None for any other policy. A class names its compiled law in its own
+    ``COMPILED_LAW`` (``"pd"``, ``"ccc"``, ...): a subclass that does not name one again is not
+    compiled (its law may differ)."""
+    law = type(controller).__dict__.get("COMPILED_LAW")
+    if law is None or getattr(controller, "_core", None) is None:
         return None
     # a law patched on the instance (e.g. a traced ``act``) is not the compiled one
     if any(name in vars(controller) for name in _PATCHABLE):
         return None
     B = controller.n_envs
-    if cls is PDController:
+    if law == "pd":
         kind, fp, st = L.KIND_PD, _pd_fp(controller), np.zeros((B, 1))
-    elif cls is CCCController:
+    elif law == "ccc":
         kind, fp, st = L.KIND_CCC, _ccc_fp(controller), _ccc_st(controller)
-    elif cls is AdaptiveCCCController:
+    elif law == "adaptive-ccc":
         kind, fp = L.KIND_ADAPTIVE_CCC, _adaptive_fp(controller)
         st = np.array(controller.theta_hat, dtype=np.float64)
-    elif cls is JeeCCCController:
+    elif law == "jee-ccc":
         kind, fp, st = (
             L.KIND_JEE_CCC,
             _f(controller.K_P, controller.C_P, controller.C_I, controller.C_D),
             _jee_st(controller),
         )
-    elif cls is RFNNController or cls is FNNController:
+    elif law == "rfnn":
         kind, fp, st = L.KIND_RFNN, _rfnn_fp(controller), _rfnn_st(controller)
     else:
-        return None
+        raise ValueError(f"COMPILED_LAW {law!r}: no compiled law of that name")
     return CompiledForm(
         kind,
         np.ascontiguousarray(fp),

@@ -44,8 +44,9 @@ import numpy as np
 from gymnasium.envs.registration import register, registry
 
 from contour_env import ENV_ID
+from contour_env.env.core import core_of
 
-from ..base import Controller, _core_of
+from ..base import Controller
 from ..registry import controller_names
 from ..residual import (
     DEFAULT_SCALE,
@@ -303,7 +304,7 @@ class ZooRun:
             )
         env = self.make_env()
         wrapped = residual_wrapper(env, **self.wrapper_kwargs)
-        _, core = _core_of(env)
+        _, core = core_of(env)
         obs_dim = int(wrapped.observation_space.shape[0])
         model_dim = int(model.observation_space.shape[0])
         if obs_dim != model_dim:
@@ -366,7 +367,7 @@ class ZooAgent(Controller):
         self.source = source
 
     def bind(self, env) -> ZooAgent:
-        _, core = _core_of(env)
+        _, core = core_of(env)
         want = int(self.model.observation_space.shape[0])
         if core.obs_dim != want:
             raise ValueError(

@@ -7,8 +7,9 @@ error on a circle (eqs. 20–31) predicted and simulated.
 ``jee_design``: the same with the cross-coupling controller (eqs. 8, 16, 21, 32): stable
 regions of (C_P, C_I) and (C_P, C_D) (Figs. 4a/4b) and the steady state with cross-coupling
 predicted (eq. 21 and the controller law) and simulated, on the paper's ideal model and the
-realistic one (computation delay). ``jee_chart``: the design chart (Fig. 5), the recommended
-gains, the report and the plot.
+realistic one (computation delay). The design chart (Fig. 5), the recommended gains, the
+report and the plot run the package's controllers: they are in the application,
+:mod:`contour_env.app.jee_chart`.
 """
 
 from .jee import (
@@ -25,14 +26,6 @@ from .jee import (
     stability_report,
     steady_state_prediction,
 )
-from .jee_chart import (
-    cross_coupling_report,
-    design,
-    design_chart,
-    format_cross_coupling_report,
-    plot_design,
-    recommend_gains,
-)
 from .jee_design import (
     cross_coupling_region,
     simulate_cc_circle,
@@ -46,16 +39,10 @@ __all__ = [
     "axial_gain_limit",
     "axis_models",
     "cross_coupling_region",
-    "cross_coupling_report",
-    "design",
-    "design_chart",
     "discretize_axis",
-    "format_cross_coupling_report",
     "format_stability_report",
     "jury_conditions",
     "jury_stable",
-    "plot_design",
-    "recommend_gains",
     "simulate_cc_circle",
     "simulate_circle",
     "simulate_step_response",

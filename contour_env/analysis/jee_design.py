@@ -57,7 +57,7 @@ The mismatched Table 1 is handled as the paper says: the matched analysis with e
 Both are compared with a simulation of the law on the plant (:func:`simulate_cc_circle`).
 
 The design chart, the recommended gains, the report and the plot are in
-:mod:`contour_env.analysis.jee_chart`.
+:mod:`contour_env.app.jee_chart`.
 
 All quantities SI (m, s); errors in the reports in µm.
 """

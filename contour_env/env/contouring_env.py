@@ -7,7 +7,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from .core import EnvConfig, EnvCore, check_seed, make_core
+from .core import EnvConfig, EnvCore, check_seed
+from .factory import make_core
 
 
 class ContouringEnv(gym.Env):

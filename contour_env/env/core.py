@@ -13,11 +13,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..cases import Setup, build_setup, get_case
+from ..cases import Setup
 from ..metrics import FOLLOW_LIMIT_M
 from ..plants import PlantParams, pack_params
 from ..plants.discretize import state_size
-from ..plants.params import check_param_ranges
+from ..plants.params import check_param_ranges, one_params_per_env
 from . import kernel as K
 
 PARALLEL_MIN_ENVS = 256
@@ -227,21 +227,6 @@ class EnvConfig:
         return (
             self.w_contour * self.abort_contour_error_m + self.w_lag * self.abort_tracking_error_m
         ) / self.contour_error_scale_m + self.w_effort
-
-
-def one_params_per_env(plant_params, cls, n_envs: int) -> list:
-    """``plant_params`` as a list of n_envs items (each to be a ``cls``, checked by the
-    caller); ValueError naming the parameter for a single item, a string or a wrong count."""
-    name = cls.__name__
-    if isinstance(plant_params, (cls, str, bytes)) or not hasattr(plant_params, "__len__"):
-        raise ValueError(
-            f"plant_params: a list of one {name} per env ({n_envs}), got "
-            f"{type(plant_params).__name__}"
-        )
-    plant_params = list(plant_params)
-    if len(plant_params) != n_envs:
-        raise ValueError(f"plant_params: one {name} per env ({n_envs}), got {len(plant_params)}")
-    return plant_params
 
 
 def _checked_plant_params(plant_params, plant, n_envs: int) -> list:
@@ -731,6 +716,17 @@ class EnvCore:
         }
 
 
+def core_of(env) -> tuple:
+    """``(holder, core)`` of a contour_env env — single, wrapped (``env.unwrapped``) or
+    vectorised: the object that holds the simulation core and the core (:class:`EnvCore` or
+    :class:`~contour_env.env.five_axis_core.FiveAxisCore`). ValueError for anything else."""
+    for candidate in (env, getattr(env, "unwrapped", None)):
+        core = getattr(candidate, "core", None)
+        if core is not None:
+            return candidate, core
+    raise ValueError("env: expected a contour_env env (single, wrapped or vectorised)")
+
+
 def signals_to_batch(signals: dict) -> dict:
     """A single env's signals with a leading batch axis of one (controllers work on batches)."""
     if np.ndim(signals["measured_position"]) == 2:
@@ -798,56 +794,3 @@ def check_seed(seed, name: str = "seed") -> int:
             f"({'negative' if seed < 0 else f'about 2**{seed.bit_length() - 1}'})"
         )
     return seed
-
-
-def make_core(
-    case=None,
-    plant=None,
-    path=None,
-    *,
-    n_envs=1,
-    feedrate_m_s=None,
-    max_accel_m_s2=None,
-    max_jerk_m_s3=None,
-    settle_time_s=None,
-    ideal=False,
-    structural_mode=False,
-    plant_params=None,
-    strict=False,
-    rapid_feed_m_s=None,
-    num_threads=None,
-    **config,
-) -> EnvCore:
-    # num_threads: the step's thread policy (None / "auto": adaptive; see StepThreads)
-    check_env_arguments(config)
-    setup = build_setup(
-        case,
-        plant,
-        path,
-        feedrate_m_s=feedrate_m_s,
-        max_accel_m_s2=max_accel_m_s2,
-        max_jerk_m_s3=max_jerk_m_s3,
-        settle_time_s=settle_time_s,
-        ideal=ideal,
-        structural_mode=structural_mode,
-        strict=strict,
-        rapid_feed_m_s=rapid_feed_m_s,
-    )
-    if isinstance(case, str):
-        # the case's own env settings (e.g. corner-blend: random disturbance phase, encoder
-        # noise) unless given here
-        config = {**get_case(case).env_config, **config}
-    if getattr(setup, "family", None) == "five-axis":
-        # the coupled five-axis machine: its own core and kernel (contour_env.env.five_axis_core)
-        from ..cases import FIVE_AXIS_ABORT_CONTOUR_M
-        from .five_axis_core import FiveAxisCore
-
-        # its contour guard is on ε + L·θ: the family's default (programs too) unless given
-        config = {"abort_contour_error_m": FIVE_AXIS_ABORT_CONTOUR_M, **config}
-        return FiveAxisCore(
-            setup, EnvConfig(**config), n_envs, plant_params=plant_params, num_threads=num_threads
-        )
-    threads = StepThreads(num_threads, n_envs)  # checked before the arrays are built
-    core = EnvCore(setup, EnvConfig(**config), n_envs=n_envs, plant_params=plant_params)
-    core.threads = threads
-    return core

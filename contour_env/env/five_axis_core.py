@@ -62,8 +62,8 @@ import math
 import numpy as np
 
 from ..plants.five_axis import FiveAxisParams, gravity, pack_five_axis
+from ..plants.params import one_params_per_env
 from . import five_axis_kernel as K5
-from .core import one_params_per_env
 
 # half-width of the nearest-point search (reference samples) around the last nearest one;
 # the tip moves about one sample per step, so 64 samples leave a wide margin while it lags

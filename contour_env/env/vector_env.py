@@ -18,7 +18,8 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from .core import MAX_SEED, EnvCore, check_seed, make_core
+from .core import MAX_SEED, EnvCore, check_seed
+from .factory import make_core
 
 
 class ContouringVectorEnv(VectorEnv):

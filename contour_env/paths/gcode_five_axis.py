@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .gcode import _Parser, _short
+from .gcode_parser import Parser, short_text
 
 __all__ = ["FiveAxisProgram", "parse_five_axis"]
 
@@ -60,7 +60,7 @@ class FiveAxisProgram:
         )
 
 
-class _FiveAxisParser(_Parser):
+class _FiveAxisParser(Parser):
     rotary_letters = "AC"
 
     def __init__(self, source: str, geometry):
@@ -121,7 +121,7 @@ class _FiveAxisParser(_Parser):
         try:
             self.geometry.check_joint(np.array(target), name="q")
         except ValueError as exc:
-            words = " ".join(_short(values[a].text) for a in "XYZAC" if a in values)
+            words = " ".join(short_text(values[a].text) for a in "XYZAC" if a in values)
             raise self.error(lineno, f"{words}: beyond the machine's travel ({exc})") from None
         # joint-space length (m): one degree of A or C counts as one program unit
         diff = np.array(target) - np.array(start)

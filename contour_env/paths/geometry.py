@@ -366,3 +366,10 @@ class PathGeometry:
         kappa = np.where(curved, kappa, 0.0)
         frame = np.stack([t, nrm, b], axis=2)
         return np.ascontiguousarray(frame), kappa, tau
+
+
+def path_polyline(path, n: int = 4000) -> np.ndarray:
+    """Points of the path for drawing, (m, 3) m: ``n`` evenly spaced in arc length plus every
+    segment junction (so that sharp corners are drawn sharp)."""
+    s = np.union1d(np.linspace(0.0, path.total_length, int(n)), path.seg_s0)
+    return path.evaluate(np.append(s, path.total_length))["position"]

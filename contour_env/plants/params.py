@@ -365,3 +365,18 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
         if key not in kw:
             kw[key] = kw["coulomb_N"] if key == "static_N" else np.full(n, default)
     return check_param_ranges(PlantParams(**kw))
+
+
+def one_params_per_env(plant_params, cls, n_envs: int) -> list:
+    """``plant_params`` as a list of n_envs items (each to be a ``cls``, checked by the
+    caller); ValueError naming the parameter for a single item, a string or a wrong count."""
+    name = cls.__name__
+    if isinstance(plant_params, (cls, str, bytes)) or not hasattr(plant_params, "__len__"):
+        raise ValueError(
+            f"plant_params: a list of one {name} per env ({n_envs}), got "
+            f"{type(plant_params).__name__}"
+        )
+    plant_params = list(plant_params)
+    if len(plant_params) != n_envs:
+        raise ValueError(f"plant_params: one {name} per env ({n_envs}), got {len(plant_params)}")
+    return plant_params

@@ -16,7 +16,7 @@ from agents.adaptive_ccc import (
 )
 from agents.compare import compare
 from contour_env import ENV_ID
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.evaluation import run_episode
 from contour_env.metrics import score
 from contour_env.paths import circle

@@ -10,8 +10,8 @@ import contour_env  # noqa: F401
 from agents import make_controller
 from agents.compare import compare, robustness
 from contour_env import ENV_ID
+from contour_env.app.cli import main
 from contour_env.cases import CASES
-from contour_env.cli import main
 from contour_env.evaluation import evaluate
 
 

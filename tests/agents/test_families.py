@@ -224,8 +224,8 @@ def test_task_sampler_draws_families_with_plant_variation_and_random_phase():
 
 
 def test_plant_alone_with_families_is_a_valid_configuration_and_cli_value():
-    from contour_env.cli import build_parser
-    from contour_env.cli_rl import config_from_args
+    from contour_env.app.cli import build_parser
+    from contour_env.app.cli_rl import config_from_args
 
     args = build_parser().parse_args(
         [

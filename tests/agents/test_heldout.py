@@ -17,8 +17,8 @@ from agents.rl import TrainConfig
 from agents.rl.heldout import HELDOUT_DIR, refuse_heldout
 from agents.rl.tasks import TaskSampler
 from contour_env import ENV_ID
+from contour_env.app.cli import main
 from contour_env.cases import build_setup
-from contour_env.cli import main
 from contour_env.evaluation import run_episode
 from contour_env.metrics import score
 

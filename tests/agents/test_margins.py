@@ -20,7 +20,7 @@ from agents.margins import (
     requirement,
 )
 from contour_env.analysis.linear_plant import controller_system, discrete_plant
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.plants import Plant
 from contour_env.plants.catalog import nominal_params
 

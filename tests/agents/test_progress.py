@@ -17,7 +17,7 @@ from agents.rl.progress import (
     expected_time_line,
     reference_rate,
 )
-from contour_env import cli_rl
+from contour_env.app import cli_rl
 
 TINY = dict(
     plant="friction-table",

@@ -24,8 +24,8 @@ from agents.rfnn import (
     theta_gradient_bound,
 )
 from contour_env import ENV_ID
+from contour_env.app.cli import main
 from contour_env.cases import case_names
-from contour_env.cli import main
 from contour_env.evaluation import evaluate, run_episode
 from contour_env.metrics import score
 

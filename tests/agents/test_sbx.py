@@ -17,7 +17,7 @@ from agents.rl import TrainConfig, train
 from agents.rl.actor import numpy_actor
 from agents.rl.checkpoint import algo_class, checkpoint_dirs, load_model, load_normalization
 from contour_env import ENV_ID
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.evaluation import evaluate, run_episode
 
 SHORT = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"
@@ -204,7 +204,7 @@ def test_tiny_sbx_ppo_training_and_annealed_rate(tmp_path, gcode):
 
 def test_the_algorithm_lists_agree():
     from agents.rl import checkpoint, config
-    from contour_env import cli_rl
+    from contour_env.app import cli_rl
 
     assert cli_rl.ALGOS == config.ALGOS == checkpoint.SB3_ALGOS + checkpoint.SBX_ALGOS
     assert cli_rl.JAX_ALGOS == config.JAX_ALGOS == checkpoint.SBX_ALGOS

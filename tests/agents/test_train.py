@@ -14,7 +14,7 @@ from agents.rl import TrainConfig, train
 from agents.rl.checkpoint import checkpoint_dirs, load_model, load_normalization
 from agents.rl.models import format_models, list_models, shipped_model_for
 from contour_env import ENV_ID
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.evaluation import evaluate, run_episode
 
 SHORT = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"

@@ -28,7 +28,7 @@ from contour_env.analysis.jee_design import (
     steady_state_cc_circle,
     steady_state_cc_matched,
 )
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.plants import Plant
 
 T = 1e-3

@@ -166,7 +166,7 @@ def test_bad_tracking_guard_raises_naming_the_parameter(bad):
 
 
 def test_run_without_controller_prints_completed_false_with_a_reason(capsys):
-    from contour_env.cli import main
+    from contour_env.app.cli import main
 
     assert main(["run", "--case", "sharp-corner"]) == 0
     out = capsys.readouterr().out

@@ -136,7 +136,7 @@ def test_auto_keeps_the_fastest_count_and_moves_when_the_machine_changes():
 
 
 def test_bench_kills_its_busy_process_even_on_interrupt(monkeypatch):
-    from contour_env import bench
+    from contour_env.app import speed as bench
 
     started = []
     real_start = bench.start_busy_process

@@ -100,7 +100,7 @@ def test_vector_env_rejects_bad_actions():
 
 
 def test_core_batch_calls_reject_bad_indices_seeds_and_info_arrays():
-    from contour_env.env.core import make_core
+    from contour_env.env.factory import make_core
 
     core = make_core("hsm2-circle-I", n_envs=3)
     with pytest.raises(ValueError, match=r"envs: indices must be in \[0, 3\)"):
@@ -123,7 +123,7 @@ def test_core_batch_calls_reject_bad_indices_seeds_and_info_arrays():
 def test_reset_seeds_as_an_integer_array_equal_the_same_seeds_as_a_list():
     # the autoreset hands the draws over as an int64 array (no Python list); any integers are
     # taken mod 2**64 either way, negative ones included
-    from contour_env.env.core import make_core
+    from contour_env.env.factory import make_core
 
     seeds = [5, 2**62 + 3, -7]
     by_list = make_core("hsm2-circle-I", n_envs=3)
@@ -161,7 +161,7 @@ def test_returned_arrays_are_never_written_again():
 
 
 def test_core_step_fresh_outputs_equals_stepping_in_place():
-    from contour_env.env.core import make_core
+    from contour_env.env.factory import make_core
 
     rng = np.random.default_rng(8)
     a, b = (make_core("hsm2-circle-II", n_envs=4) for _ in range(2))
@@ -184,7 +184,7 @@ def test_core_step_fresh_outputs_equals_stepping_in_place():
 
 def test_termination_reason_kept_for_an_env_left_out_of_a_step():
     # the "no env ended" shortcut of the reasons applies only when every env was stepped
-    from contour_env.env.core import make_core
+    from contour_env.env.factory import make_core
 
     core = make_core("hsm2-circle-I", n_envs=3, abort_contour_error_m=1e-4)
     core.reset_envs(range(3), [0, 1, 2])

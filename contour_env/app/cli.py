@@ -8,83 +8,8 @@ import sys
 
 import numpy as np
 
-from . import DEFAULT_CASE  # one default case: the CLI's and gym.make's
-
-
-def _add_target_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--case", help="named case (see `contour-env cases`)")
-    p.add_argument(
-        "--plant",
-        help="plant name, with --gcode (hsm2, jee-triaxial, linear-motor, friction-table)",
-    )
-    p.add_argument(
-        "--gcode",
-        metavar="FILE",
-        help="G-code file to follow, with --plant (any extension: .nc .ngc .gcode .tap .cnc "
-        ".txt ...; always a file name, never program text)",
-    )
-    p.add_argument(
-        "--feedrate",
-        type=float,
-        default=None,
-        help="feedrate override, m/s (default: the case's or the program's F words)",
-    )
-    p.add_argument(
-        "--ideal",
-        action="store_true",
-        help="textbook plant: no delay, current lag, added friction, ripple, mismatch",
-    )
-    p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
-    p.add_argument(
-        "--strict",
-        action="store_true",
-        help="refuse a G-code program with Z motion on a 2-axis plant (default: Z is taken by "
-        "an unsimulated axis, Z-only moves become pauses)",
-    )
-    p.add_argument(
-        "--rapid-feed",
-        type=float,
-        default=None,
-        help="the machine's rapid rate for G00 moves, m/s (default: the program's highest F)",
-    )
-
-
-def gcode_file(value: str) -> str:
-    """``--gcode VALUE``: a file, always (program text belongs to the Python API); SystemExit
-    with one line naming the option when there is no such file."""
-    if not os.path.exists(value):
-        raise SystemExit(f"error: --gcode: no such file: {value}")
-    if not os.path.isfile(value):
-        raise SystemExit(f"error: --gcode: not a file: {value}")
-    return value
-
-
-def _target_kwargs(args) -> dict:
-    if args.case and args.gcode:
-        raise SystemExit("error: give --case, or --plant with --gcode, not both")
-    if args.gcode and not args.plant:
-        raise SystemExit(
-            "error: --gcode needs --plant (hsm2, jee-triaxial, linear-motor, friction-table)"
-        )
-    if args.plant and not args.gcode and not args.case:
-        raise SystemExit("error: --plant needs --gcode (or use --case)")
-    kw = {"ideal": args.ideal}
-    if args.gcode:
-        # an existing file is read as a file by build_setup whatever its name
-        # (contour_env.paths.gcode_source)
-        kw.update(plant=args.plant, path=gcode_file(args.gcode))
-    else:
-        kw["case"] = args.case or DEFAULT_CASE
-        if args.plant:
-            kw["plant"] = args.plant
-    if args.feedrate is not None:
-        kw["feedrate_m_s"] = args.feedrate
-    if getattr(args, "strict", False):
-        kw["strict"] = True
-    if getattr(args, "rapid_feed", None) is not None:
-        kw["rapid_feed_m_s"] = args.rapid_feed
-    return kw
-
+from .. import DEFAULT_CASE  # one default case: the CLI's and gym.make's
+from .cli_common import add_target_args, print_metrics, target_kwargs
 
 _SETUP_KEYS = (
     "case",
@@ -99,7 +24,7 @@ _SETUP_KEYS = (
 
 def _print_program_summary(kw) -> None:
     """One line on what the G-code reader ignored or approximated (nothing for other paths)."""
-    from .cases import build_setup
+    from ..cases import build_setup
 
     setup = build_setup(**{k: kw[k] for k in _SETUP_KEYS if k in kw})
     if setup.program_summary:
@@ -122,7 +47,7 @@ def cmd_warm(args) -> int:
 
 
 def cmd_cases(args) -> int:
-    from .cases import all_case_names, get_case
+    from ..cases import all_case_names, get_case
 
     print(f"{'case':18s} {'plant':15s} {'path':10s} {'feedrate':>12s}  notes")
     for spec in map(get_case, all_case_names()):
@@ -143,38 +68,19 @@ def cmd_controllers(args) -> int:
     return 0
 
 
-def _print_metrics(name: str, m: dict) -> None:
-    def fmt(v):
-        if v is None:
-            return "n/a"
-        if isinstance(v, list):
-            return "[" + ", ".join(fmt(x) for x in v) + "]"
-        return f"{v:.4g}" if isinstance(v, float) else str(v)
-
-    # a contour error below one encoder count prints as such (the JSON keeps the number)
-    below = {
-        "max_contour_error_um": m.get("max_below_resolution"),
-        "rms_contour_error_um": m.get("below_resolution"),
-    }
-    print(f"{name}:")
-    for key, value in m.items():
-        text = f"≤{m['encoder_resolution_um']:g} (enc)" if below.get(key) else fmt(value)
-        print(f"  {key:28s} {text}")
-
-
 def cmd_run(args) -> int:
     import gymnasium as gym
 
-    from . import ENV_ID
-    from .evaluation import run_episode
-    from .io import atomic_write_json
-    from .metrics import check_metrics, score
-    from .plotting import plot_runs
+    from .. import ENV_ID
+    from ..evaluation import run_episode
+    from ..io import atomic_write_json
+    from ..metrics import check_metrics, score
+    from ..plotting import plot_runs
 
     metrics_asked = check_metrics(
         tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
     )
-    kw = _target_kwargs(args)
+    kw = target_kwargs(args)
     env = gym.make(ENV_ID, **kw)
     core = env.unwrapped.core
     setup = core.setup
@@ -194,7 +100,7 @@ def cmd_run(args) -> int:
         policy, label = make_controller(args.controller, env=env).bind(env), args.controller
     record = run_episode(env, policy, seed=args.seed)
     metrics = score(record, metrics=metrics_asked)
-    _print_metrics(label, metrics)
+    print_metrics(label, metrics)
     result = {
         "case": setup.name,
         "plant": setup.plant.name,
@@ -221,14 +127,14 @@ def cmd_run(args) -> int:
 def cmd_compare(args) -> int:
     from agents.compare import compare, format_table, robustness
 
+    from ..io import atomic_write_json
     from .cli_checks import check_compare_options
-    from .io import atomic_write_json
 
     # every option first, all bad ones named in one error, before anything runs
     check_compare_options(args)
     # rows are names or variants (ccc:wp=3e4:wd=20); each row is labelled as typed
     names = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    kw = _target_kwargs(args)
+    kw = target_kwargs(args)
 
     def show(name, row):
         if "rms_contour_error_um" in row:
@@ -290,8 +196,8 @@ def cmd_compare(args) -> int:
         print(f"wrote {args.json}")
     if args.plot:
         # matplotlib only when a plot is asked for (about a second of start-up)
-        from .cases import build_setup
-        from .plotting import plot_runs
+        from ..cases import build_setup
+        from ..plotting import plot_runs
 
         keys = ("case", "plant", "path", "ideal", "feedrate_m_s")
         path = build_setup(**{k: kw[k] for k in keys if k in kw}).path  # cached: compare's
@@ -316,10 +222,10 @@ def cmd_ilc(args) -> int:
     from agents.registry import KEEPING_CONTROLLERS, LEARNING_CONTROLLERS, learns_between_trials
     from agents.repeated_batch import run_batch
 
-    from . import ENV_ID
-    from .io import atomic_write_json
-    from .metrics import format_um, resolution_fields
-    from .plotting import plot_learning
+    from .. import ENV_ID
+    from ..io import atomic_write_json
+    from ..metrics import format_um, resolution_fields
+    from ..plotting import plot_learning
 
     if not learns_between_trials(args.controller):
         raise ValueError(
@@ -335,7 +241,7 @@ def cmd_ilc(args) -> int:
         )
     if args.iterations < 1:
         raise ValueError(f"--iterations: must be >= 1, got {args.iterations}")
-    kw = _target_kwargs(args)
+    kw = target_kwargs(args)
     if args.noise is not None:
         kw["measurement_noise_std_m"] = args.noise
     if args.disturbance_phase:
@@ -384,8 +290,8 @@ def cmd_ilc(args) -> int:
 def cmd_stability(args) -> int:
     import json
 
-    from .analysis import format_stability_report, stability_report
-    from .io import atomic_write_json
+    from ..analysis import format_stability_report, stability_report
+    from ..io import atomic_write_json
 
     plant = args.plant
     if args.params:
@@ -409,7 +315,7 @@ def cmd_stability(args) -> int:
     rep = stability_report(plant, ideal=not args.realistic, **kw)
     print(format_stability_report(rep))
     if args.cross_coupling or args.plot or args.cp is not None or args.verify_margins:
-        from .analysis.jee_chart import run_cross_coupling
+        from .jee_chart import run_cross_coupling
 
         cc, text = run_cross_coupling(
             plant,
@@ -430,7 +336,7 @@ def cmd_stability(args) -> int:
 def cmd_margins(args) -> int:
     from agents.margins import format_margins, loop_margins, meets_requirement
 
-    from .io import atomic_write_json
+    from ..io import atomic_write_json
 
     rep = loop_margins(
         args.controller,
@@ -447,8 +353,8 @@ def cmd_margins(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import format_bench, run_bench
-    from .io import atomic_write_json
+    from ..io import atomic_write_json
+    from .speed import format_bench, run_bench
 
     res = run_bench(
         args.case,
@@ -478,7 +384,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_controllers)
     p = sub.add_parser("run", help="run one episode and print its metrics")
-    _add_target_args(p)
+    add_target_args(p)
     p.add_argument(
         "--controller",
         default=None,
@@ -495,7 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", help="write a plot (PNG) to this file")
     p.set_defaults(func=cmd_run)
     p = sub.add_parser("compare", help="controllers side by side (Lee 2012 Tables 2, 3)")
-    _add_target_args(p)
+    add_target_args(p)
     p.add_argument(
         "--controllers",
         default="pd,ccc,adaptive-ccc",
@@ -537,7 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("ilc", help="repeated-batch trials with a learning controller")
-    _add_target_args(p)
+    add_target_args(p)
     p.add_argument(
         "--controller",
         default="ilc-contour",
@@ -678,8 +584,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=2, help="processes compiling at once (default 2)")
     p.set_defaults(func=cmd_warm)
     from .cli_rl import add_rl_commands  # train, evaluate, models (residual RL agents)
+    from .sweep import train_or_sweep  # train --sweep FILE: a sweep of trials
 
     add_rl_commands(sub)
+    sub.choices["train"].set_defaults(func=train_or_sweep)
     from .cli_benchmark import add_benchmark_command  # the whole benchmark and its report
 
     add_benchmark_command(sub)
@@ -704,7 +612,7 @@ def _option_of(args, path) -> str | None:
 
 
 def _check_outputs(args) -> None:
-    from .io import check_output_dir, check_output_file
+    from ..io import check_output_dir, check_output_file
 
     for dests, check in (
         (OUTPUT_FILE_OPTIONS, check_output_file),
@@ -717,7 +625,7 @@ def _check_outputs(args) -> None:
 
 
 def main(argv=None) -> int:
-    from .io import OutputPathError
+    from ..io import OutputPathError
 
     parser = build_parser()
     args = parser.parse_args(argv)

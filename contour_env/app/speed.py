@@ -26,7 +26,7 @@ After the tracking rows come three more (at 4096 envs; 1024 with ``quick``):
 - contended: the tracking row again while a second process spins on the CPU (the benchmark
   starts ``python -c "while True: pass"`` itself and kills it afterwards, whatever happens),
   CartPole alternating as before, with the ratio to the quiet row;
-- controller in the loop: the rows of ``contour_env.bench_controllers.controller_rates`` (a
+- controller in the loop: the rows of ``contour_env.app.speed_controllers.controller_rates`` (a
   controller computing each action from the env's signals, single env and 4096 envs) with the
   ratio to the env's own single-env rate; skipped with a note where that module is missing.
 """
@@ -43,7 +43,7 @@ import time
 import gymnasium as gym
 import numpy as np
 
-from . import DEFAULT_CASE, ENV_ID
+from .. import DEFAULT_CASE, ENV_ID
 
 VECTOR_SIZES = (1, 64, 1024, 4096)
 DEFAULT_REPEATS = 5
@@ -236,7 +236,7 @@ def run_bench(
     env sizes. Defaults: 2 s, 5 windows, 1/64/1024/4096 envs; with ``quick`` 0.3 s, one
     window, 1/64/1024 envs (an explicit argument still wins). ``extra_envs``: the vector size
     of the exploration and contended rows (default 4096; 1024 with ``quick``; 0: no such rows).
-    ``controllers``: add the controller-in-the-loop rows (where contour_env.bench_controllers
+    ``controllers``: add the controller-in-the-loop rows (where contour_env.app.speed_controllers
     exists).
     """
     import contour_env  # noqa: F401  (registers the env)
@@ -401,9 +401,9 @@ def _exploration(venv, track, steps, rng, window, repeats) -> list:
 
 
 def _controller_rows(quick: bool, single_rate: float) -> tuple[list, str]:
-    # controller-in-the-loop figures from contour_env.bench_controllers, where present
+    # controller-in-the-loop figures from contour_env.app.speed_controllers, where present
     try:
-        from .bench_controllers import controller_rates
+        from .speed_controllers import controller_rates
     except ImportError as e:
         return [], f"controller-in-the-loop rows skipped ({e})"
     rows = [

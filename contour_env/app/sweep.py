@@ -14,12 +14,12 @@ The sweep file (YAML, docs/SWEEP.md)::
 
 Keys of ``grid`` and ``fixed`` are ``contour-env train``'s options with ``_`` for ``-``
 (``n_envs`` for ``--n-envs``). Every trial's arguments go through the train command's own
-parser and :func:`contour_env.cli_rl.config_from_args` before anything runs, and each trial
-runs :func:`contour_env.cli_rl.train_from_args`, the function ``contour-env train`` runs, into
+parser and :func:`contour_env.app.cli_rl.config_from_args` before anything runs, and each trial
+runs :func:`contour_env.app.cli_rl.train_from_args`, the function ``contour-env train`` runs, into
 ``OUT/<trial name>``, a model DIR like ``contour-env train --out`` writes. ``OUT/sweep.json``
 lists every trial (options, status, wall time, figures), ``OUT/sweep.yaml`` is a copy of the
 file, ``OUT/_logs/<trial>.log`` the trainer's log, ``OUT/_ray`` Ray Tune's experiment files.
-The execution (serial or Ray Tune) is :mod:`agents.rl.sweep_run`.
+The execution (serial or Ray Tune) is :mod:`contour_env.app.sweep_run`.
 """
 
 from __future__ import annotations
@@ -32,9 +32,12 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from .cli_rl import train_entry, train_parser
+
 SWEEP_KEYS = ("out", "grid", "fixed", "max_concurrent")
 # train options that a sweep sets itself, or that make no sense per trial
-NOT_IN_SWEEP = ("out", "resume", "sweep", "ray", "no_progress")
+# ("func": the command line's entry, train_or_sweep, not an option)
+NOT_IN_SWEEP = ("out", "resume", "sweep", "ray", "no_progress", "func")
 
 
 @dataclass(frozen=True)
@@ -56,13 +59,11 @@ class Sweep:
     max_concurrent: int | None
 
 
-def train_parser() -> argparse.ArgumentParser:
-    """The parser of ``contour-env train`` (the same arguments, defaults and checks)."""
-    from contour_env.cli_rl import add_rl_commands
-
-    sub = argparse.ArgumentParser(prog="contour-env").add_subparsers()
-    add_rl_commands(sub)
-    return sub.choices["train"]
+def train_or_sweep(args: argparse.Namespace) -> int:
+    """``contour-env train``: a sweep of trials with ``--sweep FILE``, else one training run."""
+    if args.sweep is not None:
+        return cmd_sweep(args)
+    return train_entry(args)
 
 
 def _parse(parser, argv, where: str):
@@ -153,7 +154,7 @@ def read_sweep_file(file: str) -> tuple[str, dict]:
 def load_sweep(file: str, out: str | None = None) -> Sweep:
     """The sweep of ``file``, every trial checked as ``contour-env train`` checks its
     arguments; ``ValueError`` naming the file and the key otherwise."""
-    from contour_env.cli_rl import apply_train_defaults, config_from_args
+    from .cli_rl import apply_train_defaults, config_from_args
 
     text, doc = read_sweep_file(file)
     unknown = [k for k in doc if k not in SWEEP_KEYS]

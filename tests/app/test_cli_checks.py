@@ -1,5 +1,5 @@
 """``contour-env compare`` checks every option before it runs anything and names every bad one
-in one error (issue 36 item 13; contour_env.cli_checks)."""
+in one error (issue 36 item 13; contour_env.app.cli_checks)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from contour_env.cli import main
+from contour_env.app.cli import main
 
 
 def _error(argv, capsys) -> str:

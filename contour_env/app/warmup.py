@@ -30,7 +30,7 @@ STAGES = (("plant", "five-axis"), ("env", "env-parallel", "controllers", "batch"
 def _plant() -> None:
     # the plant step (friction slow path included) of a plant with stick–slip and of one with
     # a structural mode, through the batch step the env and the tests use
-    from .plants import Plant
+    from ..plants import Plant
 
     for name in ("hsm2", "linear-motor"):
         plant = Plant(name)
@@ -42,7 +42,7 @@ def _plant() -> None:
 def _five_axis() -> None:
     import gymnasium as gym
 
-    from . import ENV_ID
+    from .. import ENV_ID
 
     env = gym.make(ENV_ID, case="five-axis-line")
     env.reset(seed=0)
@@ -59,7 +59,7 @@ def _env() -> None:
     # the serial driver (single env, small batches)
     import gymnasium as gym
 
-    from . import ENV_ID
+    from .. import ENV_ID
 
     env = gym.make(ENV_ID, case="hsm2-circle-II")
     env.reset(seed=0)
@@ -71,7 +71,7 @@ def _env() -> None:
 def _env_parallel() -> None:
     # the parallel driver (>= 256 envs on more than one thread): a part of its own, as each
     # driver compiles the whole env step inline (about as long as the serial one)
-    from .env.core import PARALLEL_MIN_ENVS
+    from ..env.core import PARALLEL_MIN_ENVS
 
     _vector_steps(PARALLEL_MIN_ENVS, num_threads=2)
 
@@ -79,7 +79,7 @@ def _env_parallel() -> None:
 def _vector_steps(n: int, num_threads: int) -> None:
     import gymnasium as gym
 
-    from . import ENV_ID
+    from .. import ENV_ID
 
     venv = gym.make_vec(
         ENV_ID,
@@ -135,7 +135,7 @@ def warm_part(name: str) -> None:
 
 def _start(name: str, root: str) -> subprocess.Popen:
     # stderr to a temporary file (a pipe read only at the end could fill and block the part)
-    code = f"from contour_env.warmup import warm_part; warm_part({name!r})"
+    code = f"from contour_env.app.warmup import warm_part; warm_part({name!r})"
     err = tempfile.TemporaryFile("w+")
     proc = subprocess.Popen(
         [sys.executable, "-c", code], cwd=root, stdout=subprocess.DEVNULL, stderr=err, text=True
@@ -180,7 +180,7 @@ def warm(workers: int = 2, progress=None, skip=()) -> float:
 
 def cache_is_cold() -> bool:
     """True when the friction slow path (which every kernel calls) has no cache entry yet."""
-    from . import kernel_cache
+    from .. import kernel_cache
 
     folder = kernel_cache.PACKAGE / "plants" / "__pycache__"
     return not any(folder.glob("kernel._axis_step_slow-*.nbi"))

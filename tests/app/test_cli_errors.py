@@ -3,7 +3,7 @@ never a traceback (issue 20 item 4: unusable output paths, models --dir)."""
 
 import pytest
 
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.io import OutputPathError, atomic_write_json, check_output_dir
 
 

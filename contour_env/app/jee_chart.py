@@ -36,8 +36,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .jee import DEFAULT_FEEDRATES_M_S, _check_circle, _circle_basis
-from .jee_design import (
+from ..analysis.jee import DEFAULT_FEEDRATES_M_S, _check_circle, _circle_basis
+from ..analysis.jee_design import (
     CD_RATIO,
     CI_RATIO,
     CONTOUR_GOAL_M,

@@ -679,9 +679,10 @@ def _intro(meta: dict) -> list[str]:
         f"{meta['timestamp']}.",
         "",
         "Ours: this package's simulation, scored by `contour_env.metrics.score` (true contour "
-        "error). Paper: the seed papers' published figures (`contour_env/benchmark/published.py`), "
-        "from real machines or their own simulations; what should carry over is the ordering "
-        "and a similar ratio to PD, not the absolute figures.",
+        "error). Paper: the seed papers' published figures "
+        "(`contour_env/app/benchmark/published.py`), from real machines or their own "
+        "simulations; what should carry over is the ordering and a similar ratio to PD, not "
+        "the absolute figures.",
     ]
 
 

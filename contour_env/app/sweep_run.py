@@ -1,4 +1,4 @@
-"""Run a sweep's trials (:mod:`agents.rl.sweep`): one after another in this process, or as
+"""Run a sweep's trials (:mod:`contour_env.app.sweep`): one after another in this process, or as
 Ray Tune trials (``--ray auto|ADDRESS``, one CPU per torch thread). Each trial is
 :func:`run_trial`, a pure function of its arguments that never raises: a failed trial is a
 record with ``status`` ``error``, the others go on. ``OUT/sweep.json`` is rewritten after every
@@ -30,17 +30,17 @@ FIGURES = (
 def check_ray(address) -> str | None:
     """``--ray``'s ``address`` checked: ``ValueError`` naming ``--ray`` when it is empty or
     Ray Tune is not installed."""
-    from contour_env.benchmark.runner import check_ray as _check
+    from contour_env.app.benchmark.runner import check_ray as _check
 
     return _check(address, "ray.tune")
 
 
 def run_trial(trial: dict) -> dict:
-    """One trial (a :class:`~agents.rl.sweep.Trial` as a dict): ``contour-env train``'s own
+    """One trial (a :class:`~contour_env.app.sweep.Trial` as a dict): ``contour-env train``'s own
     function on its arguments; the record of :data:`FIGURES`, status and wall time."""
-    from contour_env.cli_rl import train_from_args
+    from contour_env.app.cli_rl import train_from_args
 
-    from .sweep import train_parser
+    from .cli_rl import train_parser
 
     rec = {"name": trial["name"], "status": "error", "error": None, "model": trial["out"]}
     t0 = time.perf_counter()

@@ -7,9 +7,9 @@ import json
 import pytest
 
 import agents.rl
-from agents.rl.sweep import load_sweep, trial_name
-from agents.rl.sweep_run import FIGURES, check_ray
-from contour_env.cli import main
+from contour_env.app.cli import main
+from contour_env.app.sweep import load_sweep, trial_name
+from contour_env.app.sweep_run import FIGURES, check_ray
 
 TINY = """\
 grid:

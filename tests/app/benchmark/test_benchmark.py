@@ -10,10 +10,10 @@ import sys
 
 import pytest
 
-from contour_env import cli_benchmark
-from contour_env.benchmark import suite as S
-from contour_env.benchmark.published import PUBLISHED, RELATIVE, published_for
-from contour_env.benchmark.runner import run_all
+from contour_env.app import cli_benchmark
+from contour_env.app.benchmark import suite as S
+from contour_env.app.benchmark.published import PUBLISHED, RELATIVE, published_for
+from contour_env.app.benchmark.runner import run_all
 
 TINY = (
     S.nominal("hsm2-circle-I", "pd"),
@@ -241,7 +241,7 @@ def _rec(ctrl, ours, paper, pd_ours=100.0, pd_paper=100.0):
 
 
 def test_reading_comes_from_the_numbers():
-    from contour_env.benchmark.report import read_nominal
+    from contour_env.app.benchmark.report import read_nominal
 
     rows = [_rec("pd", 100.0, 100.0), _rec("ccc", 10.0, 50.0), _rec("adaptive-ccc", 20.0, 30.0)]
     text = read_nominal("case-x", rows)

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from contour_env.cli import main
+from contour_env.app.cli import main
 from contour_env.paths.gcode import read_gcode
 
-CORPUS = Path(__file__).resolve().parent / "data" / "gcode"
+CORPUS = Path(__file__).resolve().parents[1] / "data" / "gcode"
 
 
 def _exit_message(argv, capsys) -> str:

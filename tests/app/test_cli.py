@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from contour_env.cli import main
+from contour_env.app.cli import main
 
 
 def test_cases_lists_every_named_case(capsys):
@@ -53,7 +53,7 @@ def test_gcode_without_plant_is_a_clean_error():
 
 
 def test_bench_small(tmp_path, monkeypatch):
-    from contour_env import bench
+    from contour_env.app import speed as bench
 
     # the exploration/contended rows at 8 envs; the controller rows are tested below (the
     # full bench's 4096-env controller row compiles the parallel loop: minutes)
@@ -86,7 +86,7 @@ def test_bench_small(tmp_path, monkeypatch):
 
 
 def test_bench_controller_rows_quick():
-    from contour_env.bench_controllers import controller_rates
+    from contour_env.app.speed_controllers import controller_rates
 
     rows = controller_rates(quick=True)
     assert [label for label, _ in rows] == ["controller in the loop, single env (pd), steps/s"]
@@ -97,7 +97,7 @@ def test_bench_controller_rows_quick():
     "kwargs, word", [({"repeats": 0}, "repeats"), ({"seconds": 0.0}, "seconds")]
 )
 def test_bench_rejects_bad_settings(kwargs, word):
-    from contour_env import bench
+    from contour_env.app import speed as bench
 
     with pytest.raises(ValueError, match=word):
         bench.run_bench("hsm2-circle-III", sizes=(1,), **kwargs)

@@ -1,4 +1,4 @@
-"""Controller-in-the-loop rates for the benchmark (``contour_env.bench`` prints the rows).
+"""Controller-in-the-loop rates for the benchmark (``contour_env.app.speed`` prints the rows).
 
 A classical controller runs compiled with the env kernel (:mod:`contour_env.env.rollout`):
 ``run_episode(env, make_controller("pd"))`` on one env, and the fused batch loop over 4096
@@ -15,8 +15,8 @@ def _single_rate(quick: bool) -> float:
 
     from agents import make_controller
 
-    from . import ENV_ID
-    from .evaluation import run_episode
+    from .. import ENV_ID
+    from ..evaluation import run_episode
 
     env = gym.make(ENV_ID, case="hsm2-circle-II" if quick else "lm-circle3d")
     run_episode(env, make_controller("pd"))  # compile / load the cached loop

@@ -1,5 +1,5 @@
 """The README's tables from a benchmark report: the ``readme`` suite, the renderers
-(:mod:`contour_env.benchmark.readme_tables`) and ``scripts/readme_figures.py --report``.
+(:mod:`contour_env.app.benchmark.readme_tables`) and ``scripts/readme_figures.py --report``.
 
 Synthetic records for the layout (every table, no run), a few real runs for the kinds the
 README adds (``design``) and one real table (Lee 2012, one circle)."""
@@ -13,12 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from contour_env.benchmark import readme_tables as T
-from contour_env.benchmark import suite as S
-from contour_env.benchmark.report import build_records, write_report
-from contour_env.benchmark.runs import execute
+from contour_env.app.benchmark import readme_tables as T
+from contour_env.app.benchmark import suite as S
+from contour_env.app.benchmark.report import build_records, write_report
+from contour_env.app.benchmark.runs import execute
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 README = ROOT / "README.md"
 VERSION = {"package": "contour_env", "version": "0.0", "commit": "0123456789abcdef-dirty"}
 
@@ -288,7 +288,7 @@ def test_readme_figures_without_a_report_runs_the_readme_suite_of_the_named_tabl
 
 
 def test_a_real_design_run_gives_the_gains_and_margins_of_the_table():
-    from contour_env.benchmark.design import margins_text
+    from contour_env.app.benchmark.design import margins_text
 
     spec = S.design("friction-table", "pd")
     res = execute(spec.to_dict())
@@ -302,7 +302,7 @@ def test_a_real_design_run_gives_the_gains_and_margins_of_the_table():
 
 
 def test_lee2012_table_from_real_runs_of_one_circle():
-    from contour_env.benchmark.runner import run_all
+    from contour_env.app.benchmark.runner import run_all
 
     specs = [S.nominal("hsm2-circle-I", c) for c in S.PAPER_NOMINAL["hsm2-circle-I"]]
     records = build_records(run_all(specs), {"suite": "test"}, VERSION)

@@ -1,15 +1,15 @@
 """``contour-env train``, ``evaluate`` and ``models``: residual RL agents on the command line.
 
 ``add_rl_commands(subparsers)`` registers the three subcommands on the main parser
-(:func:`contour_env.cli.build_parser`). Errors are ``ValueError``/``FileNotFoundError`` with the
-parameter named; ``contour_env.cli.main`` prints them and exits with status 2.
+(:func:`contour_env.app.cli.build_parser`). Errors are ``ValueError``/``FileNotFoundError`` with the
+parameter named; ``contour_env.app.cli.main`` prints them and exits with status 2.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from .cli import _add_target_args, _print_metrics, _target_kwargs, gcode_file
+from .cli_common import add_target_args, gcode_file, print_metrics, target_kwargs
 
 # agents.rl.config.ALGOS (not imported here: the CLI starts without the RL stack); the sbx-*
 # algorithms are the JAX implementations, the optional extra pip install -e ".[jax]"
@@ -197,9 +197,9 @@ def cmd_evaluate(args) -> int:
     from agents import make_controller
     from agents.residual import ResidualAgent
 
-    from . import ENV_ID
-    from .evaluation import evaluate
-    from .io import atomic_write_json
+    from .. import ENV_ID
+    from ..evaluation import evaluate
+    from ..io import atomic_write_json
 
     if not args.case and not args.gcode:
         raise ValueError("evaluate: give --case X, or --plant P with --gcode FILE")
@@ -209,13 +209,13 @@ def cmd_evaluate(args) -> int:
             f"the agent in {args.model} is its base {agent.base_name}: no checkpoint beat it on "
             'the validation set (agent.json "kept": "base"); its rows equal the base\'s'
         )
-    kw = _target_kwargs(args)
+    kw = target_kwargs(args)
     env = gym.make(ENV_ID, **kw)
     setup = env.unwrapped.setup
     m_agent = evaluate(env, agent, seed=args.seed)
     m_base = evaluate(gym.make(ENV_ID, **kw), make_controller(agent.base_name), seed=args.seed)
-    _print_metrics(f"residual ({agent.meta['algo']} on {agent.base_name})", m_agent)
-    _print_metrics(f"base {agent.base_name}", m_base)
+    print_metrics(f"residual ({agent.meta['algo']} on {agent.base_name})", m_agent)
+    print_metrics(f"base {agent.base_name}", m_base)
     ratio = None
     if m_agent["rms_contour_error_um"] and m_base["rms_contour_error_um"]:
         ratio = m_agent["rms_contour_error_um"] / m_base["rms_contour_error_um"]
@@ -470,10 +470,10 @@ def add_rl_commands(sub) -> None:
         'instance) or a cluster ADDRESS; needs pip install -e ".[ray]" (default: one after '
         "another in this process)",
     )
-    p.set_defaults(func=_train_entry)
+    p.set_defaults(func=train_entry)
 
     p = sub.add_parser("evaluate", help="score a trained residual agent against its base")
-    _add_target_args(p)
+    add_target_args(p)
     p.add_argument("--model", required=True, help="trained model DIR (from `contour-env train`)")
     p.add_argument("--json", help="write the metrics as JSON to this file")
     p.set_defaults(func=cmd_evaluate)
@@ -483,11 +483,18 @@ def add_rl_commands(sub) -> None:
     p.set_defaults(func=cmd_models)
 
 
-def _train_entry(args: argparse.Namespace) -> int:
+def train_entry(args: argparse.Namespace) -> int:
+    """``contour-env train`` without ``--sweep`` (the command line's entry,
+    :func:`contour_env.app.sweep.train_or_sweep`, runs a sweep when it is given)."""
     if args.sweep is not None:
-        from agents.rl.sweep import cmd_sweep
-
-        return cmd_sweep(args)
+        raise ValueError("--sweep: sweeps run from the contour-env command line")
     if args.ray is not None:
         raise ValueError("--ray: runs the trials of --sweep FILE; give --sweep too")
     return cmd_train(args)
+
+
+def train_parser() -> argparse.ArgumentParser:
+    """The parser of ``contour-env train`` (the same arguments, defaults and checks)."""
+    sub = argparse.ArgumentParser(prog="contour-env").add_subparsers()
+    add_rl_commands(sub)
+    return sub.choices["train"]

@@ -4,7 +4,7 @@
                           [--ray auto|ADDRESS]
 
 :func:`add_benchmark_command` registers it on the ``contour-env`` parser; :func:`main` runs it
-standalone (``python -m contour_env.cli_benchmark ...``).
+standalone (``python -m contour_env.app.cli_benchmark ...``).
 """
 
 from __future__ import annotations
@@ -56,10 +56,10 @@ def add_benchmark_command(subparsers) -> argparse.ArgumentParser:
 def cmd_benchmark(args) -> int:
     from tqdm.auto import tqdm
 
+    from ..io import check_output_dir
     from .benchmark.report import code_version, write_report
     from .benchmark.runner import check_ray, check_workers, run_all
     from .benchmark.suite import get_suite
-    from .io import check_output_dir
 
     # every value checked before anything runs
     workers = check_workers(args.workers)
@@ -118,7 +118,7 @@ def _utc_now() -> str:
 
 def main(argv=None) -> int:
     """Standalone entry point (the same command as ``contour-env benchmark``)."""
-    from .io import OutputPathError
+    from ..io import OutputPathError
 
     parser = argparse.ArgumentParser(prog="contour-env")
     sub = parser.add_subparsers(dest="command", required=True)

@@ -1,11 +1,11 @@
-"""contour_env.warmup: compiling the kernels ahead of use (contour-env warm)."""
+"""contour_env.app.warmup: compiling the kernels ahead of use (contour-env warm)."""
 
 from __future__ import annotations
 
 import pytest
 
-from contour_env import warmup
-from contour_env.cli import main
+from contour_env.app import warmup
+from contour_env.app.cli import main
 
 
 def test_unknown_part_is_refused_naming_the_known_ones():

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from .paths.gcode import MAX_FEED_M_S
+from ..paths.gcode import MAX_FEED_M_S
 
 __all__ = ["check_compare_options"]
 
@@ -28,8 +28,8 @@ def compare_option_errors(args) -> list[str]:
     ``"--option: ..."`` strings, in the order of the options; [] when all are good."""
     from agents.compare import check_controllers
 
-    from .env.core import check_seed
-    from .metrics import check_metrics
+    from ..env.core import check_seed
+    from ..metrics import check_metrics
 
     errors = []
     names = [c.strip() for c in (args.controllers or "").split(",") if c.strip()]
