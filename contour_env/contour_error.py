@@ -51,8 +51,9 @@ _PARALLEL_MIN = 4096
 
 
 @_kernel
-def line_distance(data, px, py, pz):
-    """Distance (m) from (px, py, pz) to the line segment p0 → p1 in ``data[0:6]``."""
+def _line_nearest(data, px, py, pz):
+    # (p0, p1 − p0, q): the nearest point of the segment p0 → p1 in data[0:6] to (px, py, pz)
+    # is p0 + q (p1 − p0), q ∈ [0, 1]
     x0 = data[0]
     y0 = data[1]
     z0 = data[2]
@@ -64,15 +65,22 @@ def line_distance(data, px, py, pz):
     qz = pz - z0
     dd = dx * dx + dy * dy + dz * dz
     q = 0.0
-    if dd > 0.0:  # zero-length segment: the distance to p0
+    if dd > 0.0:  # zero-length segment: p0
         q = (qx * dx + qy * dy + qz * dz) / dd
         if q < 0.0:
             q = 0.0
         elif q > 1.0:
             q = 1.0
-    ex = qx - q * dx
-    ey = qy - q * dy
-    ez = qz - q * dz
+    return x0, y0, z0, dx, dy, dz, q
+
+
+@_kernel
+def line_distance(data, px, py, pz):
+    """Distance (m) from (px, py, pz) to the line segment p0 → p1 in ``data[0:6]``."""
+    x0, y0, z0, dx, dy, dz, q = _line_nearest(data, px, py, pz)
+    ex = (px - x0) - q * dx
+    ey = (py - y0) - q * dy
+    ez = (pz - z0) - q * dz
     return math.sqrt(ex * ex + ey * ey + ez * ez)
 
 
@@ -148,30 +156,34 @@ def _next_break(x, beta):
 
 
 @_scalar_kernel
-def _helix_distance(th0, sweep, r, pitch, a, b, h):
+def _helix_search(th0, sweep, r, pitch, a, b, h):
     # Exact minimisation of f(τ) = |helix(θ0 + τ) − q|², τ between 0 and sweep, with q = (a, b, h)
-    # in the (u, v, w) frame. ½ f'' = r (a cos θ + b sin θ) + pitch² = r ρ cos(θ − φ) + pitch²,
-    # so f' is monotone between consecutive zeros of f'' (θ − φ = ±acos(−pitch²/(rρ)) + 2πk):
-    # on each such piece f has at most one interior minimum, found by a bracketed root search.
-    # No sampling, hence no missed minimum however many turns or however steep.
+    # in the (u, v, w) frame: (the minimum of f, the τ where it is). ½ f'' = r (a cos θ +
+    # b sin θ) + pitch² = r ρ cos(θ − φ) + pitch², so f' is monotone between consecutive zeros
+    # of f'' (θ − φ = ±acos(−pitch²/(rρ)) + 2πk): on each such piece f has at most one
+    # interior minimum, found by a bracketed root search. No sampling, hence no missed minimum
+    # however many turns or however steep.
     tlo = min(0.0, sweep)
     thi = max(0.0, sweep)
     # Window: any τ with (pitch τ − h)² > f(τ*) cannot be the minimiser (τ* = nearest height).
     tc = h / pitch
     ts = min(max(tc, tlo), thi)
     best = _helix_f(ts, th0, r, pitch, a, b, h)
+    tbest = ts
     half = math.sqrt(best) / abs(pitch)
     half = half * (1.0 + 1e-12) + 1e-15 * (1.0 + abs(tc))
     wlo = max(tlo, tc - half)
     whi = min(thi, tc + half)
     if wlo > whi:  # only through rounding; ts is inside the window
-        return math.sqrt(best)
+        return best, tbest
     f = _helix_f(wlo, th0, r, pitch, a, b, h)
     if f < best:
         best = f
+        tbest = wlo
     f = _helix_f(whi, th0, r, pitch, a, b, h)
     if f < best:
         best = f
+        tbest = whi
     rho = math.hypot(a, b)
     p2 = pitch * pitch
     if r * rho <= p2:
@@ -181,7 +193,8 @@ def _helix_distance(th0, sweep, r, pitch, a, b, h):
             f = _helix_f(tr, th0, r, pitch, a, b, h)
             if f < best:
                 best = f
-        return math.sqrt(best)
+                tbest = tr
+        return best, tbest
     dr2 = (rho - r) * (rho - r)
     phi = math.atan2(b, a)
     alpha = math.acos(-p2 / (r * rho))
@@ -202,48 +215,70 @@ def _helix_distance(th0, sweep, r, pitch, a, b, h):
                 f = _helix_f(tr, th0, r, pitch, a, b, h)
                 if f < best:
                     best = f
+                    tbest = tr
         lo = hi
         glo = ghi
-    return math.sqrt(best)
+    return best, tbest
+
+
+@_scalar_kernel
+def _helix_distance(th0, sweep, r, pitch, a, b, h):
+    # distance from (a, b, h) to the helix: the root of _helix_search's minimum
+    return math.sqrt(_helix_search(th0, sweep, r, pitch, a, b, h)[0])
+
+
+@_kernel
+def _arc_local(data, px, py, pz):
+    # (local coordinates a, b, h of the point in the (u, v, w) frame of the arc, then the
+    # arc's radius, start angle θ0, sweep and pitch)
+    qx = px - data[0]
+    qy = py - data[1]
+    qz = pz - data[2]
+    a = qx * data[3] + qy * data[4] + qz * data[5]
+    b = qx * data[6] + qy * data[7] + qz * data[8]
+    h = qx * data[9] + qy * data[10] + qz * data[11]
+    return a, b, h, data[12], data[13], data[14], data[15]
+
+
+@_scalar_kernel
+def _within_sweep(a, b, th0, sweep):
+    # whether the projection (a, b) lies in the swept angular range: its angle measured from
+    # θ0 in the direction of travel, in [0, 2π), at most |sweep| (always for a full circle)
+    if abs(sweep) >= TWO_PI:
+        return True
+    delta = math.atan2(b, a) - th0
+    if sweep < 0.0:
+        delta = -delta
+    delta = delta % TWO_PI
+    return delta <= abs(sweep)
+
+
+@_scalar_kernel
+def _arc_end_distances(r, th0, th1, a, b):
+    # squared in-plane distances from (a, b) to the arc's end points at θ0 and θ1
+    ex = r * math.cos(th0) - a
+    ey = r * math.sin(th0) - b
+    d0 = ex * ex + ey * ey
+    ex = r * math.cos(th1) - a
+    ey = r * math.sin(th1) - b
+    d1 = ex * ex + ey * ey
+    return d0, d1
 
 
 @_kernel
 def arc_distance(data, px, py, pz):
     """Distance (m) from (px, py, pz) to the arc / helix in ``data`` (ARCHITECTURE layout)."""
-    qx = px - data[0]
-    qy = py - data[1]
-    qz = pz - data[2]
-    # local coordinates of the point in the (u, v, w) frame of the arc
-    a = qx * data[3] + qy * data[4] + qz * data[5]
-    b = qx * data[6] + qy * data[7] + qz * data[8]
-    h = qx * data[9] + qy * data[10] + qz * data[11]
-    r = data[12]
-    th0 = data[13]
-    sweep = data[14]
-    pitch = data[15]
+    a, b, h, r, th0, sweep, pitch = _arc_local(data, px, py, pz)
     if pitch != 0.0:
         return _helix_distance(th0, sweep, r, pitch, a, b, h)
     rho = math.sqrt(a * a + b * b)  # lengths in m: no overflow, cheaper than hypot
-    inside = abs(sweep) >= TWO_PI or rho == 0.0  # full circle, or on the axis (all equidistant)
-    if not inside:
-        # angle of the projection measured from θ0 in the direction of travel, in [0, 2π)
-        delta = math.atan2(b, a) - th0
-        if sweep < 0.0:
-            delta = -delta
-        delta = delta % TWO_PI
-        inside = delta <= abs(sweep)
-    if inside:
+    # on the axis all points are equidistant
+    if rho == 0.0 or _within_sweep(a, b, th0, sweep):
         dr = rho - r
         return math.sqrt(dr * dr + h * h)
     # outside the swept range: |p(θ) − q|² = r² + ρ² + h² − 2rρ cos(θ − φ) grows with the
     # angular distance, so the nearer end point is the nearest point
-    ex = r * math.cos(th0) - a
-    ey = r * math.sin(th0) - b
-    d0 = ex * ex + ey * ey
-    th1 = th0 + sweep
-    ex = r * math.cos(th1) - a
-    ey = r * math.sin(th1) - b
-    d1 = ex * ex + ey * ey
+    d0, d1 = _arc_end_distances(r, th0, th0 + sweep, a, b)
     return math.sqrt(min(d0, d1) + h * h)
 
 
@@ -314,8 +349,9 @@ def cubic_distance(data, px, py, pz):
 
 
 @_scalar_kernel
-def _cubic_distance(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
-    # |P(q)| minimised over q ∈ [0, 1], P(q) = a0 + a1 q + a2 q² + a3 q³ (a0 = a − x).
+def _cubic_search(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
+    # |P(q)|² minimised over q ∈ [0, 1], P(q) = a0 + a1 q + a2 q² + a3 q³ (a0 = a − x):
+    # (the minimum, the q where it is).
     # g(q) = ½ d/dq |P(q)|² = P·P' with P = (a − x) + b q + c q² + d q³ is a quintic. All its
     # roots in [0, 1] are isolated by walking down the derivative chain: g⁽⁴⁾ is linear, and
     # between consecutive roots of g⁽ᵏ⁺¹⁾ the polynomial g⁽ᵏ⁾ is monotone, so it has at most
@@ -356,8 +392,11 @@ def _cubic_distance(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
     w3 = _q5_root(h0, h1, h2, h3, h4, 0.0, z2, 1.0, w2)
     # g itself: candidates for the minimum of |P|²
     best = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, 0.0)
+    qbest = 0.0
     f = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, 1.0)
-    best = min(best, f)
+    if f < best:
+        best = f
+        qbest = 1.0
     lo = 0.0
     for k in range(5):
         if k == 0:
@@ -374,8 +413,17 @@ def _cubic_distance(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
             q = _q5_root(g0, g1, g2, g3, g4, g5, lo, hi, -1.0)
             if q >= 0.0:
                 f = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, q)
-                best = min(best, f)
+                if f < best:
+                    best = f
+                    qbest = q
             lo = hi
+    return best, qbest
+
+
+@_scalar_kernel
+def _cubic_distance(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
+    # |P(q)| minimised over q ∈ [0, 1] (see _cubic_search)
+    best = _cubic_search(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z)[0]
     return math.sqrt(best)
 
 
@@ -502,163 +550,38 @@ def _distance_batch_parallel(seg_type, seg_data, seg_bounds, pts, out, n_chunks)
 # nearest point (foot point) on the path
 # ----------------------------------------------------------------------------------------
 # The same minimisations as the distance kernels above, returning where the minimum is: the
-# foot point f of x on the path, with |x − f| equal to the true contour error. Kept apart
-# from the distance kernels, which stay free of the bookkeeping (they run every servo step).
+# foot point f of x on the path, with |x − f| equal to the true contour error. The searches
+# are shared (_helix_search, _cubic_search); the distance kernels, which run every servo
+# step, inline them and use only the minimum, so the bookkeeping of where it is compiles away.
 
 
 @_scalar_kernel
 def _helix_argmin(th0, sweep, r, pitch, a, b, h):
-    # τ of the minimum of _helix_f over τ between 0 and sweep: _helix_distance's search
-    tlo = min(0.0, sweep)
-    thi = max(0.0, sweep)
-    tc = h / pitch
-    ts = min(max(tc, tlo), thi)
-    best = _helix_f(ts, th0, r, pitch, a, b, h)
-    tbest = ts
-    half = math.sqrt(best) / abs(pitch)
-    half = half * (1.0 + 1e-12) + 1e-15 * (1.0 + abs(tc))
-    wlo = max(tlo, tc - half)
-    whi = min(thi, tc + half)
-    if wlo > whi:
-        return tbest
-    f = _helix_f(wlo, th0, r, pitch, a, b, h)
-    if f < best:
-        best = f
-        tbest = wlo
-    f = _helix_f(whi, th0, r, pitch, a, b, h)
-    if f < best:
-        best = f
-        tbest = whi
-    rho = math.hypot(a, b)
-    p2 = pitch * pitch
-    if r * rho <= p2:
-        if _helix_g(wlo, th0, r, pitch, a, b, h) < 0.0 < _helix_g(whi, th0, r, pitch, a, b, h):
-            tr = _helix_root(wlo, whi, th0, r, pitch, a, b, h)
-            f = _helix_f(tr, th0, r, pitch, a, b, h)
-            if f < best:
-                tbest = tr
-        return tbest
-    dr2 = (rho - r) * (rho - r)
-    phi = math.atan2(b, a)
-    alpha = math.acos(-p2 / (r * rho))
-    beta1 = phi - th0 - alpha
-    beta2 = phi - th0 + alpha
-    lo = wlo
-    glo = _helix_g(lo, th0, r, pitch, a, b, h)
-    while lo < whi:
-        hi = min(_next_break(lo, beta1), _next_break(lo, beta2), whi)
-        if hi <= lo:
-            hi = whi
-        ghi = _helix_g(hi, th0, r, pitch, a, b, h)
-        if glo <= 0.0 <= ghi and glo < ghi:
-            dz = pitch * min(max(tc, lo), hi) - h
-            if dr2 + dz * dz < best:
-                tr = _helix_root(lo, hi, th0, r, pitch, a, b, h)
-                f = _helix_f(tr, th0, r, pitch, a, b, h)
-                if f < best:
-                    best = f
-                    tbest = tr
-        lo = hi
-        glo = ghi
-    return tbest
+    # τ of the minimum of _helix_f over τ between 0 and sweep
+    return _helix_search(th0, sweep, r, pitch, a, b, h)[1]
 
 
 @njit(cache=True, fastmath=False, error_model="numpy")
 def _arc_foot_angle(data, px, py, pz):
     # (θ of the nearest arc point, its height τ·pitch along w)
-    qx = px - data[0]
-    qy = py - data[1]
-    qz = pz - data[2]
-    a = qx * data[3] + qy * data[4] + qz * data[5]
-    b = qx * data[6] + qy * data[7] + qz * data[8]
-    h = qx * data[9] + qy * data[10] + qz * data[11]
-    r = data[12]
-    th0 = data[13]
-    sweep = data[14]
-    pitch = data[15]
+    a, b, h, r, th0, sweep, pitch = _arc_local(data, px, py, pz)
     if pitch != 0.0:
         tau = _helix_argmin(th0, sweep, r, pitch, a, b, h)
         return th0 + tau, pitch * tau
     rho = math.sqrt(a * a + b * b)
     if rho == 0.0:  # on the axis: every point is nearest; take the start
         return th0, 0.0
-    inside = abs(sweep) >= TWO_PI
-    delta = math.atan2(b, a) - th0
-    if not inside:
-        if sweep < 0.0:
-            delta = -delta
-        delta = delta % TWO_PI
-        inside = delta <= abs(sweep)
-    if inside:
+    if _within_sweep(a, b, th0, sweep):
         return math.atan2(b, a), 0.0
     th1 = th0 + sweep
-    ex = r * math.cos(th0) - a
-    ey = r * math.sin(th0) - b
-    d0 = ex * ex + ey * ey
-    ex = r * math.cos(th1) - a
-    ey = r * math.sin(th1) - b
-    d1 = ex * ex + ey * ey
+    d0, d1 = _arc_end_distances(r, th0, th1, a, b)
     return (th0, 0.0) if d0 <= d1 else (th1, 0.0)
 
 
 @_scalar_kernel
 def _cubic_argmin(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z):
-    # q of the minimum of |P(q)|² on [0, 1]: _cubic_distance's search
-    d01 = a0x * a1x + a0y * a1y + a0z * a1z
-    d02 = a0x * a2x + a0y * a2y + a0z * a2z
-    d03 = a0x * a3x + a0y * a3y + a0z * a3z
-    d11 = a1x * a1x + a1y * a1y + a1z * a1z
-    d12 = a1x * a2x + a1y * a2y + a1z * a2z
-    d13 = a1x * a3x + a1y * a3y + a1z * a3z
-    d22 = a2x * a2x + a2y * a2y + a2z * a2z
-    d23 = a2x * a3x + a2y * a3y + a2z * a3z
-    d33 = a3x * a3x + a3y * a3y + a3z * a3z
-    g0 = d01
-    g1 = 2.0 * d02 + d11
-    g2 = 3.0 * (d03 + d12)
-    g3 = 4.0 * d13 + 2.0 * d22
-    g4 = 5.0 * d23
-    g5 = 3.0 * d33
-    x0 = _q5_root(24.0 * g4, 120.0 * g5, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0)
-    h0, h1, h2 = 6.0 * g3, 24.0 * g4, 60.0 * g5
-    y0 = _q5_root(h0, h1, h2, 0.0, 0.0, 0.0, 0.0, x0, 0.0)
-    y1 = _q5_root(h0, h1, h2, 0.0, 0.0, 0.0, x0, 1.0, y0)
-    h0, h1, h2, h3 = 2.0 * g2, 6.0 * g3, 12.0 * g4, 20.0 * g5
-    z0 = _q5_root(h0, h1, h2, h3, 0.0, 0.0, 0.0, y0, 0.0)
-    z1 = _q5_root(h0, h1, h2, h3, 0.0, 0.0, y0, y1, z0)
-    z2 = _q5_root(h0, h1, h2, h3, 0.0, 0.0, y1, 1.0, z1)
-    h0, h1, h2, h3, h4 = g1, 2.0 * g2, 3.0 * g3, 4.0 * g4, 5.0 * g5
-    w0 = _q5_root(h0, h1, h2, h3, h4, 0.0, 0.0, z0, 0.0)
-    w1 = _q5_root(h0, h1, h2, h3, h4, 0.0, z0, z1, w0)
-    w2 = _q5_root(h0, h1, h2, h3, h4, 0.0, z1, z2, w1)
-    w3 = _q5_root(h0, h1, h2, h3, h4, 0.0, z2, 1.0, w2)
-    best = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, 0.0)
-    qbest = 0.0
-    f = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, 1.0)
-    if f < best:
-        best = f
-        qbest = 1.0
-    lo = 0.0
-    for k in range(5):
-        if k == 0:
-            hi = w0
-        elif k == 1:
-            hi = w1
-        elif k == 2:
-            hi = w2
-        elif k == 3:
-            hi = w3
-        else:
-            hi = 1.0
-        if hi > lo:
-            q = _q5_root(g0, g1, g2, g3, g4, g5, lo, hi, -1.0)
-            if q >= 0.0:
-                f = _cubic_f(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z, q)
-                if f < best:
-                    best = f
-                    qbest = q
-            lo = hi
-    return qbest
+    # q of the minimum of |P(q)|² on [0, 1]
+    return _cubic_search(a0x, a0y, a0z, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z)[1]
 
 
 @njit(cache=True, fastmath=False, error_model="numpy")
@@ -666,17 +589,7 @@ def segment_foot(seg_type_i, data, px, py, pz):
     """Nearest point (fx, fy, fz) of one segment of type ``seg_type_i`` to (px, py, pz), m:
     where :func:`segment_distance` finds its minimum."""
     if seg_type_i == SEG_LINE:
-        x0 = data[0]
-        y0 = data[1]
-        z0 = data[2]
-        dx = data[3] - x0
-        dy = data[4] - y0
-        dz = data[5] - z0
-        dd = dx * dx + dy * dy + dz * dz
-        q = 0.0
-        if dd > 0.0:
-            q = ((px - x0) * dx + (py - y0) * dy + (pz - z0) * dz) / dd
-            q = min(max(q, 0.0), 1.0)
+        x0, y0, z0, dx, dy, dz, q = _line_nearest(data, px, py, pz)
         return x0 + q * dx, y0 + q * dy, z0 + q * dz
     if seg_type_i == SEG_ARC:
         th, rise = _arc_foot_angle(data, px, py, pz)
@@ -757,6 +670,20 @@ def _validate_table(seg_type, seg_data, seg_bounds):
     return st, sd, sb
 
 
+def _points_2d(points):
+    """(``points`` as a finite float (n, 2) or (n, 3) array, whether it was a single point)."""
+    pts = _as_float_array(points, "points")
+    single = pts.ndim == 1
+    if single:
+        pts = pts[None, :]
+    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
+        raise ValueError(
+            f"points must have shape (n, 2), (n, 3), (2,) or (3,), got {np.shape(points)}"
+        )
+    _check_finite(pts, "points")
+    return pts, single
+
+
 def _is_path(obj):
     return all(hasattr(obj, a) for a in ("seg_type", "seg_data", "seg_bounds"))
 
@@ -792,15 +719,7 @@ def true_contour_error(path_or_seg_type, seg_data=None, seg_bounds=None, points=
         raise ValueError("points is missing")
     st, sd, sb = _validate_table(st, sd, sb)
 
-    pts = _as_float_array(pts_in, "points")
-    single = pts.ndim == 1
-    if single:
-        pts = pts[None, :]
-    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
-        raise ValueError(
-            f"points must have shape (n, 2), (n, 3), (2,) or (3,), got {np.shape(pts_in)}"
-        )
-    _check_finite(pts, "points")
+    pts, single = _points_2d(pts_in)
     if pts.shape[1] == 2:
         pts3 = np.zeros((pts.shape[0], 3))
         pts3[:, :2] = pts
@@ -869,15 +788,7 @@ def nearest_points(path, points):
     if not _is_path(path):
         raise ValueError("nearest_points: path must have seg_type, seg_data, seg_bounds")
     st, sd, sb = _validate_table(path.seg_type, path.seg_data, path.seg_bounds)
-    pts = _as_float_array(points, "points")
-    single = pts.ndim == 1
-    if single:
-        pts = pts[None, :]
-    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
-        raise ValueError(
-            f"points must have shape (n, 2), (n, 3), (2,) or (3,), got {np.shape(points)}"
-        )
-    _check_finite(pts, "points")
+    pts, single = _points_2d(points)
     d = pts.shape[1]
     pts3 = np.zeros((pts.shape[0], 3))
     pts3[:, :d] = pts
