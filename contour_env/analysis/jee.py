@@ -855,17 +855,20 @@ def format_stability_report(report: dict) -> str:
         f"{'tracking pred':>14s} {'tracking sim':>13s} {'ratio':>7s}   (µm)",
     ]
 
-    def _r(x):
-        return "    n/a" if x is None else f"{x:7.4f}"
-
-    def _v(x, width, prec):
-        return f"{'diverged':>{width}s}" if x is None else f"{x:{width}.{prec}f}"
-
     for row in report["steady_state"]:
+        # a simulation that diverged has no steady-state error, nor a ratio
+        sim_contour = format_cell(row["simulated_contour_error_um"], 12, 4, "diverged")
+        sim_tracking = format_cell(row["simulated_tracking_error_um"], 13, 3, "diverged")
         lines.append(
             f"{row['feedrate_m_min']:10.4g} {row['predicted_contour_error_um']:13.4f} "
-            f"{_v(row['simulated_contour_error_um'], 12, 4)} {_r(row['contour_ratio'])} "
+            f"{sim_contour} {format_cell(row['contour_ratio'], 7, 4)} "
             f"{row['predicted_tracking_error_um']:14.3f} "
-            f"{_v(row['simulated_tracking_error_um'], 13, 3)} {_r(row['tracking_ratio'])}"
+            f"{sim_tracking} {format_cell(row['tracking_ratio'], 7, 4)}"
         )
     return "\n".join(lines)
+
+
+def format_cell(x: float | None, width: int, prec: int, missing: str = "n/a") -> str:
+    """A table cell: ``x`` in fixed point (``width`` characters, ``prec`` decimals), or
+    ``missing`` right-aligned in the same width where ``x`` is None."""
+    return f"{missing:>{width}s}" if x is None else f"{x:{width}.{prec}f}"

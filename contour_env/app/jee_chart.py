@@ -36,7 +36,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..analysis.jee import DEFAULT_FEEDRATES_M_S, _check_circle, _circle_basis
+from ..analysis.jee import DEFAULT_FEEDRATES_M_S, _check_circle, _circle_basis, format_cell
 from ..analysis.jee_design import (
     CD_RATIO,
     CI_RATIO,
@@ -565,10 +565,7 @@ def format_cross_coupling_report(rep: dict) -> str:
         f"  {'F (m/min)':>10s} {'contour law':>12s} {'eq. 21':>9s} {'sim':>9s} {'ratio':>7s} "
         f"{'tracking law':>13s} {'sim':>9s} {'ratio':>7s}   (µm)",
     ]
-
-    def v(x, w, p):
-        return f"{'n/a':>{w}s}" if x is None else f"{x:{w}.{p}f}"
-
+    v = format_cell  # n/a where the simulation gives no figure
     for r in ss["rows"]:
         lines.append(
             f"  {r['feedrate_m_min']:10.4g} {r['predicted_contour_error_um']:12.3f} "
@@ -616,140 +613,147 @@ def plot_design(rep: dict, out) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
 
     from contour_env.io import atomic_save_figure
 
     fig, axes = plt.subplots(2, 2, figsize=(13, 11.5))
-    regions = rep["cross_coupling_region"]
-    units = {"C_I": "1/s", "C_D": "s"}
     for ax, key, gain in ((axes[0, 0], "fig4a", "C_I"), (axes[0, 1], "fig4b", "C_D")):
-        for name, reg in regions.items():
-            _fill_region(ax, reg[key], _MODEL_COLOURS[name], f"{name} model, K_P = {reg['kp']:.3g}")
-        fixed = next(iter(next(iter(regions.values()))[key]["fixed_gain"].items()))
-        ax.axvline(0.0, color="0.5", lw=0.6)
-        ax.set_xlabel("C_P (dimensionless, as K_P)")
-        ax.set_ylabel(f"{gain} ({units[gain]})")
-        ax.set_title(
-            f"Fig. {'4a' if key == 'fig4a' else '4b'}: stable (C_P, {gain}) with {fixed[0]} = "
-            f"{fixed[1]:g}\ncommon to the x, y, z axes, M ∈ {{0, 1}} (Jury on eq. 16)"
-        )
-        ax.grid(True, alpha=0.3)
-        ax.set_ylim(bottom=0.0)
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=9)
+        _plot_stable_regions(ax, rep["cross_coupling_region"], key, gain)
     for ax, name in ((axes[1, 0], "ideal"), (axes[1, 1], "realistic")):
-        ch = rep["design_chart"][name]
-        kp = np.asarray(ch["kp_values"], dtype=float)
-        cp = np.asarray(ch["cp_values"], dtype=float)
-        handles = []
-        stable = np.asarray(ch["stable"], dtype=float)
-        adm = np.asarray(ch["admissible"], dtype=float)
-        for q, f in enumerate(ch["feedrates"]):
-            meets = np.asarray(f["meets"], dtype=float)
-            col = _FEED_COLOURS[q % len(_FEED_COLOURS)]
-            if meets.any():
-                ax.contourf(cp, kp, meets, levels=[0.5, 1.5], colors=[col], alpha=0.3)
-                ax.contour(cp, kp, meets, levels=[0.5], colors=[col], linewidths=1.2)
-            handles.append(
-                Patch(
-                    facecolor=col,
-                    alpha=0.3 if meets.any() else 0.08,
-                    edgecolor=col,
-                    label=f"{f['feedrate_m_s'] * 60:.3g} m/min: ε ≤ 25 µm, E ≤ 250 µm"
-                    + ("" if meets.any() else " (none)"),
-                )
-            )
-        ax.contour(cp, kp, stable, levels=[0.5], colors="k", linewidths=1.5)
-        handles.append(Line2D([], [], color="k", lw=1.5, label="stability boundary (Jury)"))
-        ax.contour(cp, kp, adm, levels=[0.5], colors="k", linewidths=1.2, linestyles="--")
-        handles.append(
-            Line2D([], [], color="k", lw=1.2, ls="--", label="admissible: " + _short_rule(ch))
-        )
-        rec = rep["recommended_gains"][name]
-        fd = rec["design_feedrate_m_s"]
-        fi = int(np.argmin([abs(f["feedrate_m_s"] - fd) for f in ch["feedrates"]]))
-        cont = np.array(
-            [
-                [np.nan if x is None else x for x in row]
-                for row in ch["feedrates"][fi]["contour_um"]
-            ],
-            dtype=float,
-        )
-        levels = [
-            lv
-            for lv in (5, 10, 25, 50, 100, 200, 400, 800)
-            if np.nanmin(cont) < lv < np.nanmax(cont)
-        ]
-        if levels:
-            cs = ax.contour(
-                cp, kp, cont, levels=levels, colors="0.45", linewidths=0.7, linestyles=":"
-            )
-            ax.clabel(cs, fontsize=7, fmt="%g µm")
-            handles.append(
-                Line2D(
-                    [],
-                    [],
-                    color="0.45",
-                    lw=0.7,
-                    ls=":",
-                    label=f"predicted ε at {fd * 60:.3g} m/min (µm)",
-                )
-            )
-        paper = rep["recommended_gains"].get(f"{name}_paper_rule")
-        if paper is not None:
-            ax.plot(paper["C_P"], paper["K_P"], marker="o", ms=9, mfc="none", mec="red", ls="none")
-            handles.append(
-                Line2D(
-                    [],
-                    [],
-                    marker="o",
-                    ms=8,
-                    mfc="none",
-                    mec="red",
-                    ls="none",
-                    label=f"paper's rule, stability only: K_P = {paper['K_P']:.3g}, "
-                    f"C_P = {paper['C_P']:.3g}",
-                )
-            )
-        ax.plot(rec["C_P"], rec["K_P"], marker="*", ms=15, color="red", mec="k", ls="none")
-        ax.annotate(
-            "C",
-            (rec["C_P"], rec["K_P"]),
-            xytext=(6, 6),
-            textcoords="offset points",
-            fontsize=11,
-            fontweight="bold",
-            color="red",
-        )
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="*",
-                ms=12,
-                color="red",
-                mec="k",
-                ls="none",
-                label=f"recommended: K_P = {rec['K_P']:.3g}, C_P = {rec['C_P']:.3g}",
-            )
-        )
-        ax.set_xlabel("C_P (dimensionless), with C_I = 2.62 C_P (1/s) and C_D = 0.02 C_P (s)")
-        ax.set_ylabel("K_P (dimensionless; K·K_P is the position-loop gain, 1/s)")
-        ax.set_title(
-            f"Fig. 5, {name} model{' (computation delay)' if ch['delay'] else ''}: "
-            f"R = {ch['radius_m'] * 1e3:g} mm, worst of {'/'.join(map(str, ch['planes']))}"
-        )
-        ax.grid(True, alpha=0.3)
-        ax.legend(
-            handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8
-        )
+        _plot_design_chart(ax, rep, name)
     fig.suptitle(
         "Jee & Lee 2007 cross-coupling design: stability regions (Fig. 4) and design chart (Fig. 5)"
     )
     fig.tight_layout()
     atomic_save_figure(fig, out, dpi=110)
     plt.close(fig)
+
+
+_GAIN_UNITS = {"C_I": "1/s", "C_D": "s"}
+
+
+def _plot_stable_regions(ax, regions: dict, key: str, gain: str) -> None:
+    """Fig. 4a (``key`` "fig4a", ``gain`` "C_I") or 4b ("fig4b", "C_D"): the stable (C_P, gain)
+    region of each model."""
+    for name, reg in regions.items():
+        _fill_region(ax, reg[key], _MODEL_COLOURS[name], f"{name} model, K_P = {reg['kp']:.3g}")
+    fixed = next(iter(next(iter(regions.values()))[key]["fixed_gain"].items()))
+    ax.axvline(0.0, color="0.5", lw=0.6)
+    ax.set_xlabel("C_P (dimensionless, as K_P)")
+    ax.set_ylabel(f"{gain} ({_GAIN_UNITS[gain]})")
+    ax.set_title(
+        f"Fig. {'4a' if key == 'fig4a' else '4b'}: stable (C_P, {gain}) with {fixed[0]} = "
+        f"{fixed[1]:g}\ncommon to the x, y, z axes, M ∈ {{0, 1}} (Jury on eq. 16)"
+    )
+    ax.grid(True, alpha=0.3)
+    ax.set_ylim(bottom=0.0)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=9)
+
+
+def _plot_design_chart(ax, rep: dict, name: str) -> None:
+    """Fig. 5 of the ``name`` model ("ideal" or "realistic"): x = C_P, y = K_P."""
+    ch = rep["design_chart"][name]
+    kp = np.asarray(ch["kp_values"], dtype=float)
+    cp = np.asarray(ch["cp_values"], dtype=float)
+    rec = rep["recommended_gains"][name]
+    handles = _plot_goal_regions(ax, ch, cp, kp)
+    handles += _plot_boundaries(ax, ch, cp, kp)
+    handles += _plot_contour_isolines(ax, ch, cp, kp, rec["design_feedrate_m_s"])
+    handles += _plot_gain_points(ax, rec, rep["recommended_gains"].get(f"{name}_paper_rule"))
+    ax.set_xlabel("C_P (dimensionless), with C_I = 2.62 C_P (1/s) and C_D = 0.02 C_P (s)")
+    ax.set_ylabel("K_P (dimensionless; K·K_P is the position-loop gain, 1/s)")
+    ax.set_title(
+        f"Fig. 5, {name} model{' (computation delay)' if ch['delay'] else ''}: "
+        f"R = {ch['radius_m'] * 1e3:g} mm, worst of {'/'.join(map(str, ch['planes']))}"
+    )
+    ax.grid(True, alpha=0.3)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8)
+
+
+def _plot_goal_regions(ax, ch: dict, cp, kp) -> list:
+    """The grid points meeting 25 µm / 250 µm, one colour per feedrate; their legend entries."""
+    from matplotlib.patches import Patch
+
+    handles = []
+    for q, f in enumerate(ch["feedrates"]):
+        meets = np.asarray(f["meets"], dtype=float)
+        col = _FEED_COLOURS[q % len(_FEED_COLOURS)]
+        if meets.any():
+            ax.contourf(cp, kp, meets, levels=[0.5, 1.5], colors=[col], alpha=0.3)
+            ax.contour(cp, kp, meets, levels=[0.5], colors=[col], linewidths=1.2)
+        handles.append(
+            Patch(
+                facecolor=col,
+                alpha=0.3 if meets.any() else 0.08,
+                edgecolor=col,
+                label=f"{f['feedrate_m_s'] * 60:.3g} m/min: ε ≤ 25 µm, E ≤ 250 µm"
+                + ("" if meets.any() else " (none)"),
+            )
+        )
+    return handles
+
+
+def _plot_boundaries(ax, ch: dict, cp, kp) -> list:
+    """The stability (Jury) and admissible boundaries; their legend entries."""
+    from matplotlib.lines import Line2D
+
+    stable = np.asarray(ch["stable"], dtype=float)
+    adm = np.asarray(ch["admissible"], dtype=float)
+    ax.contour(cp, kp, stable, levels=[0.5], colors="k", linewidths=1.5)
+    handles = [Line2D([], [], color="k", lw=1.5, label="stability boundary (Jury)")]
+    ax.contour(cp, kp, adm, levels=[0.5], colors="k", linewidths=1.2, linestyles="--")
+    handles.append(
+        Line2D([], [], color="k", lw=1.2, ls="--", label="admissible: " + _short_rule(ch))
+    )
+    return handles
+
+
+def _plot_contour_isolines(ax, ch: dict, cp, kp, fd: float) -> list:
+    """Iso-lines of the predicted contour error at the feedrate of the grid nearest ``fd``
+    (m/s); their legend entry, if any line is drawn."""
+    from matplotlib.lines import Line2D
+
+    fi = int(np.argmin([abs(f["feedrate_m_s"] - fd) for f in ch["feedrates"]]))
+    cont = np.array(
+        [[np.nan if x is None else x for x in row] for row in ch["feedrates"][fi]["contour_um"]],
+        dtype=float,
+    )
+    levels = [
+        lv for lv in (5, 10, 25, 50, 100, 200, 400, 800) if np.nanmin(cont) < lv < np.nanmax(cont)
+    ]
+    if not levels:
+        return []
+    cs = ax.contour(cp, kp, cont, levels=levels, colors="0.45", linewidths=0.7, linestyles=":")
+    ax.clabel(cs, fontsize=7, fmt="%g µm")
+    label = f"predicted ε at {fd * 60:.3g} m/min (µm)"
+    return [Line2D([], [], color="0.45", lw=0.7, ls=":", label=label)]
+
+
+def _plot_gain_points(ax, rec: dict, paper: dict | None) -> list:
+    """The paper's rule (``paper``, stability only; absent: not drawn) and the recommended
+    gains ``rec`` (point C); their legend entries."""
+    from matplotlib.lines import Line2D
+
+    handles = []
+    if paper is not None:
+        ax.plot(paper["C_P"], paper["K_P"], marker="o", ms=9, mfc="none", mec="red", ls="none")
+        label = f"paper's rule, stability only: K_P = {paper['K_P']:.3g}, C_P = {paper['C_P']:.3g}"
+        handles.append(
+            Line2D([], [], marker="o", ms=8, mfc="none", mec="red", ls="none", label=label)
+        )
+    ax.plot(rec["C_P"], rec["K_P"], marker="*", ms=15, color="red", mec="k", ls="none")
+    ax.annotate(
+        "C",
+        (rec["C_P"], rec["K_P"]),
+        xytext=(6, 6),
+        textcoords="offset points",
+        fontsize=11,
+        fontweight="bold",
+        color="red",
+    )
+    label = f"recommended: K_P = {rec['K_P']:.3g}, C_P = {rec['C_P']:.3g}"
+    handles.append(Line2D([], [], marker="*", ms=12, color="red", mec="k", ls="none", label=label))
+    return handles
 
 
 def _short_rule(ch: dict) -> str:
