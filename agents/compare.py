@@ -7,7 +7,7 @@ import gymnasium as gym
 import numpy as np
 
 from contour_env import ENV_ID
-from contour_env.env.five_axis_rollout import is_five_axis_env, run_five_axis_episode
+from contour_env.env.rollout import is_five_axis_env
 from contour_env.evaluation import run_episode
 from contour_env.metrics import check_metrics, format_um, score
 from contour_env.plants.randomize import randomized
@@ -108,10 +108,7 @@ def compare(
         bound.append((name, env, bound_controller(name, env, model)))
     for name, env, controller in bound:
         setup = env.unwrapped.setup
-        if is_five_axis_env(env):  # the record gains the tool's orientation error
-            record = run_five_axis_episode(env, controller, seed=seed)
-        else:
-            record = run_episode(env, controller, seed=seed)
+        record = run_episode(env, controller, seed=seed)  # five-axis: with orientation error
         m = score(record, metrics=metrics)
         row = {"controller": name, "stable": record.completed, **m}
         if getattr(controller, "is_base", False):

@@ -17,7 +17,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from contour_env.env import kernel as K
 from contour_env.env.core import core_of
 from contour_env.metrics import score
 
@@ -124,9 +123,9 @@ def run_trial(env, controller, *, seed: int = 0) -> TrialRecord:
             _, _, t1, t2, _ = env.step(action[0])
             term, trunc = np.array([t1]), np.array([t2])
         valid[:, k] = running
-        pos[:, k] = core.z[:, :, 0]
-        force[:, k] = core.ax[K.AX_APPLIED]
-        sat[:, k] = core.ax[K.AX_SAT] > 0.0
+        pos[:, k] = core.positions
+        force[:, k] = core.applied_force
+        sat[:, k] = core.saturated
         eps[:, k] = core.eps
         for b in np.flatnonzero(running & term):
             reasons[b] = core.info(int(b))["termination_reason"] or "terminated"

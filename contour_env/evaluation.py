@@ -8,17 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .env import kernel as K
-from .env.five_axis_rollout import is_five_axis_env, run_five_axis_episode
-from .env.rollout import compiled_allowed, empty_record, episode_record, try_compiled_episode
+from .env.core import core_of
+from .env.rollout import compiled_allowed, is_five_axis_env, recorder_for, try_compiled_episode
 from .metrics import EpisodeRecord, score
-
-
-def _unwrap(env):
-    core = getattr(env, "core", None) or getattr(getattr(env, "unwrapped", None), "core", None)
-    if core is None:
-        raise ValueError("env: expected a contour_env ContouringEnv (or a wrapper of one)")
-    return core
 
 
 def run_episode(
@@ -26,34 +18,33 @@ def run_episode(
 ) -> EpisodeRecord:
     """Run ``env`` from ``reset(seed=seed)`` to the end with ``policy``; return the record.
 
-    A classical controller with a compiled form (``pd``, ``ccc``, ``adaptive-ccc``,
-    ``jee-ccc``, ``rfnn``, ``fnn``) on an unwrapped, non-rendering env runs as one compiled loop
-    (:mod:`contour_env.env.rollout`), with the same record to the bit; ``compiled=False`` (or
-    ``CONTOUR_ENV_COMPILED=0``) forces the Python loop, ``None`` (default) takes the compiled
-    one where it applies.
+    The one episode loop of the package: reset, then per servo period the policy's action
+    (SB3's ``predict``; None: the zero command), the env's step and a row of the record
+    (:func:`contour_env.env.rollout.recorder_for`: on the five-axis machine the record adds
+    the tool's orientation error, so every scoring path reports
+    ``max/rms_orientation_error_arcsec`` there), until the episode ends.
 
-    On the five-axis env the episode runs in :func:`contour_env.env.five_axis_rollout.
-    run_five_axis_episode` (Python loop), whose record adds the tool's orientation error, so
-    every scoring path reports ``max/rms_orientation_error_arcsec`` there."""
-    core = _unwrap(env)
-    if is_five_axis_env(env):
-        return run_five_axis_episode(env, policy, seed=seed, deterministic=deterministic)
-    if compiled_allowed(compiled):
+    A classical controller with a compiled form (``pd``, ``ccc``, ``adaptive-ccc``,
+    ``jee-ccc``, ``rfnn``, ``fnn``, and a residual agent on one of them) on an unwrapped,
+    non-rendering feed-drive env runs the same loop compiled (:mod:`contour_env.env.rollout`):
+    only who computes the action differs, and the record is the same to the bit.
+    ``compiled=False`` (or ``CONTOUR_ENV_COMPILED=0``) forces the Python loop, ``None``
+    (default) takes the compiled one where it applies."""
+    core = core_of(env)[1]
+    if compiled_allowed(compiled) and not is_five_axis_env(env):
         record = try_compiled_episode(env, policy, seed)
         if record is not None:
             return record
-    if policy is not None and hasattr(policy, "bind") and getattr(policy, "_env", None) is None:
+    if policy is not None and hasattr(policy, "bind"):
         policy.bind(env)  # a classical controller reads the servo signals of this env
     obs, _ = env.reset(seed=seed)
-    n_max = core.n_steps - 1
-    d = core.dim
-    rec = empty_record(core)
-    zero = np.zeros(d, dtype=np.float32)
+    recorder = recorder_for(core)
+    zero = np.zeros(core.dim, dtype=np.float32)
     state = None
     episode_start = np.ones((1,), dtype=bool)
     reason = None
     n = 0
-    for n in range(1, n_max + 1):
+    for n in range(1, core.n_steps):
         if policy is None:
             action = zero
         else:
@@ -62,20 +53,11 @@ def run_episode(
             )
             episode_start = np.zeros((1,), dtype=bool)
         obs, _, terminated, truncated, info = env.step(action)
-        i = n - 1
-        kk = min(int(core.k[0]), core.n_steps - 1)
-        rec["time"][i] = core.k[0] * core.T
-        rec["contour_error"][i] = core.eps[0]
-        pos = core.z[0, :, 0]
-        ref = core.ref_pav[kk, 0, :d]
-        rec["position"][i] = pos
-        rec["reference"][i] = ref
-        rec["tracking_error"][i] = ref - pos
-        rec["force"][i] = core.ax[K.AX_APPLIED, 0]
+        recorder.record(n - 1, info)
         if terminated or truncated:
             reason = info.get("termination_reason")
             break
-    return episode_record(core, rec, n, reason)
+    return recorder.finish(n, reason)
 
 
 def evaluate(env, policy=None, *, seed: int = 0, compiled: bool | None = None) -> dict:

@@ -15,8 +15,40 @@ import hashlib
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
-# every module with cached numba functions, relative to the package
-KERNEL_SOURCES = ("contour_error.py", "noise.py", "plants/kernel.py", "env/kernel.py")
+
+
+# every module of the package that uses numba (compiled functions, or functions and records
+# that compiled code inlines), relative to the package; tests/test_kernel_cache.py holds it
+# equal to kernel_sources() (reading every source on each import would cost ~0.1 s)
+KERNEL_SOURCES = (
+    "contour_error.py",
+    "env/borrow.py",
+    "env/core.py",
+    "env/five_axis_kernel.py",
+    "env/kernel.py",
+    "env/layout.py",
+    "env/reward.py",
+    "noise.py",
+    "plants/five_axis/dynamics.py",
+    "plants/five_axis/plant.py",
+    "plants/kernel.py",
+)
+
+
+def kernel_sources(root: Path = PACKAGE) -> tuple[str, ...]:
+    """The modules of the package that use numba, read from the source: what
+    :data:`KERNEL_SOURCES` must list (the application, ``app/``, has none)."""
+    out = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root)
+        if rel.parts[0] == "app" or rel.as_posix() == "kernel_cache.py":
+            continue
+        text = path.read_text(encoding="utf-8")
+        if "from numba" in text or "import numba" in text or "from .borrow import" in text:
+            out.append(rel.as_posix())
+    return tuple(out)
+
+
 STAMP = PACKAGE / "__pycache__" / "kernel_sources.sha256"
 
 

@@ -16,8 +16,8 @@ import numpy as np  # noqa: E402
 from .io import atomic_save_figure  # noqa: E402
 from .metrics import EpisodeRecord  # noqa: E402
 from .paths.geometry import path_polyline  # noqa: E402
+from .tool_errors import ARCSEC_PER_RAD  # noqa: E402
 
-ARCSEC_PER_RAD = 180.0 / np.pi * 3600.0
 # floor of the log axes: errors below it (an exact start) are drawn at it
 FLOOR_UM, FLOOR_ARCSEC = 1e-3, 1e-3
 

@@ -70,3 +70,58 @@ def test_reader_finds_a_circle_and_an_upward_import(tmp_path):
         "agents.y -> contour_env.app.cli (agents imports app)",
         "contour_env.c -> contour_env.app.cli (library imports app)",
     ]
+
+
+# --- docs/ARCHITECTURE.md against the code (a newcomer's test) --------------------------------
+DOC = (ROOT / "docs" / "ARCHITECTURE.md").read_text()
+
+
+def _named_in_doc():
+    import re
+
+    paths = set(re.findall(r"`((?:contour_env|agents|scripts|tests)/[\w/.]*)`", DOC))
+    dotted = set(re.findall(r"`((?:contour_env|agents)\.[\w.]+)", DOC))
+    return paths, dotted
+
+
+def test_every_path_the_architecture_doc_names_exists():
+    paths, _ = _named_in_doc()
+    assert len(paths) > 30
+    missing = [p for p in sorted(paths) if not (ROOT / p.rstrip("/")).exists()]
+    assert missing == []
+
+
+def test_every_module_and_name_the_architecture_doc_names_exists():
+    import importlib
+
+    _, dotted = _named_in_doc()
+    modules = G.module_files(ROOT)
+    assert len(dotted) > 15
+    missing = []
+    for name in sorted(dotted):
+        parts = name.split(".")
+        # the longest prefix that is a module, then attributes
+        for cut in range(len(parts), 0, -1):
+            if ".".join(parts[:cut]) in modules:
+                break
+        else:
+            missing.append(name)
+            continue
+        obj = importlib.import_module(".".join(parts[:cut]))
+        for attr in parts[cut:]:
+            if not hasattr(obj, attr):
+                missing.append(name)
+                break
+            obj = getattr(obj, attr)
+    assert missing == []
+
+
+def test_the_architecture_doc_describes_every_package():
+    packages = sorted(
+        p.parent.relative_to(ROOT).as_posix() + "/"
+        for pkg in G.PACKAGES
+        for p in (ROOT / pkg).rglob("__init__.py")
+        if p.parent != ROOT / pkg
+    )
+    assert "contour_env/app/" in packages
+    assert [p for p in packages if f"`{p}`" not in DOC] == []

@@ -41,3 +41,8 @@ def test_caches_are_kept_while_the_sources_are_unchanged_and_dropped_after_an_ed
     assert sorted(kernel_cache.refresh_stale_caches(root)) == sorted(files)
     assert not any(f.exists() for f in files) and keep.exists()
     assert kernel_cache.refresh_stale_caches(root) == []
+
+
+def test_every_module_with_numba_code_is_a_kernel_source():
+    # a kernel module missing from the list would run against an old compiled kernel
+    assert kernel_cache.KERNEL_SOURCES == kernel_cache.kernel_sources()

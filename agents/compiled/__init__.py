@@ -18,10 +18,8 @@ from contour_env.kernel_cache import KERNEL_SOURCES, PACKAGE
 def _refresh_caches() -> None:
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for path in [PACKAGE / rel for rel in KERNEL_SOURCES] + [
-        here / "laws.py",
-        here / "runner.py",
-    ]:
+    # the env's kernel sources and every module of this package (the laws, the loops)
+    for path in [PACKAGE / rel for rel in KERNEL_SOURCES] + sorted(here.glob("*.py")):
         h.update(path.name.encode())
         h.update(path.read_bytes())
     digest = h.hexdigest()

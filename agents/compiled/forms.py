@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from contour_env.env.layout import EpisodeTrace
+
 from . import laws as L
 
 
@@ -29,13 +31,12 @@ class CompiledForm:
         _STORE[self.kind](self.controller, self.st)
 
     def _core_args(self, core) -> tuple:
-        p = core.packed
+        """The law and the env's arrays, as the compiled loops take them (:mod:`.runner`)."""
+        state, path, plant = core.kernel_records()
+        law = L.CompiledLaw(self.kind, self.fp, self.st, self.force_limit)
         return (
-            self.kind, self.fp, self.st, self.force_limit, core.cfg, core.icfg, core.obs_tab,
-            core.z, core.ax, core.k, core.eps, core.est, core.status, core.seed, core.ref_pav,
-            core.frame, core.scal, core.seg_type, core.seg_data, core.seg_bounds, p.mat_T,
-            p.mat_h, p.cont, p.nl, p.pidx, core.action, core.obs, core.reward,
-            core.terminated, core.truncated, core.scratch, core._no_info,
+            law, core.cfg, core.icfg, state, path, plant, core.scal, core.action,
+            core.step_outputs(), core.no_info,
         )  # fmt: skip
 
     def run_single(self, core, rec_time, rec_eps, rec_pos, rec_ref, rec_force) -> tuple:
@@ -43,7 +44,8 @@ class CompiledForm:
         is written back into the controller. Returns (steps recorded, bad action flag)."""
         from .runner import run_single
 
-        n, bad = run_single(*self._core_args(core), rec_time, rec_eps, rec_pos, rec_ref, rec_force)
+        trace = EpisodeTrace(rec_time, rec_eps, rec_pos, rec_ref, rec_force)
+        n, bad = run_single(*self._core_args(core), trace)
         self.store()
         return int(n), bool(bad)
 

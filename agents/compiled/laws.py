@@ -15,12 +15,17 @@ one. The Python ``act`` stays the readable reference; change both together.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 from numba import njit
 
+from contour_env.env.borrow import register_record
 from contour_env.env.kernel import AX_MEAS, AX_VEL
 
 KIND_PD, KIND_CCC, KIND_ADAPTIVE_CCC, KIND_JEE_CCC, KIND_RFNN = 1, 2, 3, 4, 5
+# a law as the compiled loops receive it: its kind, gains fp, state st (one row per env) and
+# the controller's force limit per axis (N)
+CompiledLaw = register_record(namedtuple("CompiledLaw", "kind fp st flim"))
 
 # --- CCC: fp = [P (A), D (A), W_p, W_i, W_d, mass (A), limit, cos(CORNER_TURN_RAD)];
 # st = [prev (2), J (A), started, tangent (A), corner (A), bisector (A), holding]

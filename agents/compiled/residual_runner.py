@@ -18,41 +18,37 @@ import numpy as np
 from numba import njit
 
 from contour_env.env.borrow import borrowed
-from contour_env.env.kernel import AX_APPLIED, I_NSTEPS, _step_one
+from contour_env.env.kernel import I_NSTEPS, _step_one, record_step
+from contour_env.env.layout import EpisodeTrace
 
 from .laws import law
-from .runner import WORK_SIZE, _action
+from .runner import WORK_SIZE, _action, borrowed_inputs
 
 
 @njit(cache=True)
 def run_residual_chunk(
-    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
-    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
-    a, scale, mask, weights, path_frame, gate, v_rest, n0, n_periods,
+    law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace, a, scale, mask,
+    weights, path_frame, gate, v_rest, n0, n_periods,
 ):  # fmt: skip
     """Env 0 for up to ``n_periods`` servo periods from recorded step ``n0`` with the agent's
     action ``a`` held. Returns (n, bad, ended): steps recorded so far, 1 when the base's
-    action was not finite (nothing stepped then), 1 when the episode ended."""
+    action was not finite (nothing stepped then), 1 when the episode ended. The arrays as
+    :func:`agents.compiled.runner.run_single` takes them."""
     B = borrowed
     return _run_residual_chunk(
-        kind, B(fp), B(st), B(flim), B(cfg), B(icfg), B(obs_tab), B(z), B(ax), B(k), B(eps),
-        B(est), B(status), B(seed), B(ref_pav), B(frame), B(scal), B(seg_type), B(seg_data),
-        B(seg_bounds), B(mat_T), B(mat_h), B(cont), B(nl), B(pidx), B(action), B(obs),
-        B(reward), B(terminated), B(truncated), B(scratch),
-        (B(info[0]), B(info[1]), B(info[2]), B(info[3])),
-        B(rec_time), B(rec_eps), B(rec_pos), B(rec_ref), B(rec_force),
+        *borrowed_inputs(law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace),
         B(a), scale, B(mask), B(weights), path_frame, gate, v_rest, n0, n_periods,
     )  # fmt: skip
 
 
 @njit(cache=True)
 def _run_residual_chunk(
-    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
-    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
-    a, scale, mask, weights, path_frame, gate, v_rest, n0, n_periods,
+    law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace, a, scale, mask,
+    weights, path_frame, gate, v_rest, n0, n_periods,
 ):  # fmt: skip
+    kind, fp, st, flim = law_arrays
+    z, ax, k = state.z, state.ax, state.k
+    ref_pav, frame = path.ref_pav, path.frame
     A = z.shape[1]
     n_steps = icfg[I_NSTEPS]
     n_max = n_steps - 1
@@ -118,27 +114,12 @@ def _run_residual_chunk(
                 x = 1.0
             action[b, i] = x
         if A == 2:
-            _step_one(
-                2, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
-                frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
-                obs, reward, terminated, truncated, scratch, info,
-            )  # fmt: skip
+            _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
         else:
-            _step_one(
-                A, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
-                frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
-                obs, reward, terminated, truncated, scratch, info,
-            )  # fmt: skip
-        kb = k[b]
-        rec_time[n] = kb * T
-        rec_eps[n] = eps[b]
-        kr = min(kb, n_steps - 1)
-        for i in range(A):
-            rec_pos[n, i] = z[b, i, 0]
-            rec_ref[n, i] = ref_pav[kr, 0, i]
-            rec_force[n, i] = ax[AX_APPLIED, b, i]
+            _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
+        record_step(n, b, A, T, n_steps, state, path, trace)
         n += 1
-        if terminated[b] or truncated[b]:
+        if out.terminated[b] or out.truncated[b]:
             return n, 0, 1
     return n, 0, 0
 
@@ -226,7 +207,8 @@ class ResidualForm:
         arrays. Returns (n, bad, ended) as :func:`run_residual_chunk`."""
         agent = self.agent
         return run_residual_chunk(
-            *self._args, *recs, np.ascontiguousarray(a, dtype=np.float64), agent.scale,
+            *self._args, EpisodeTrace(*recs), np.ascontiguousarray(a, dtype=np.float64),
+            agent.scale,
             self._mask, self._weights, self._path_frame, agent.gate, agent._v_rest, n,
             agent.action_repeat,
         )  # fmt: skip

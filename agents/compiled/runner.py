@@ -17,9 +17,10 @@ import numpy as np
 from numba import njit, prange
 
 from contour_env.env.borrow import borrowed
-from contour_env.env.kernel import AX_APPLIED, I_NSTEPS, _step_one
+from contour_env.env.kernel import I_NSTEPS, _step_one, borrowed_records, record_step
+from contour_env.env.layout import EpisodeTrace
 
-from .laws import law
+from .laws import CompiledLaw, law
 
 WORK_SIZE = 4 * 3 + 2 * 9 + 6
 
@@ -41,33 +42,37 @@ def _action(A, b, u, flim, action):
     return ok
 
 
+@njit(cache=True, inline="always")
+def borrowed_inputs(law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace):
+    """The arguments of a compiled loop, every array borrowed (no reference counting per
+    step; see contour_env.env.borrow), in the same order."""
+    B = borrowed
+    state, path, plant, out = borrowed_records(state, path, plant, out)
+    law_arrays = CompiledLaw(
+        law_arrays.kind, B(law_arrays.fp), B(law_arrays.st), B(law_arrays.flim)
+    )
+    trace = EpisodeTrace(B(trace.time), B(trace.eps), B(trace.pos), B(trace.ref), B(trace.force))
+    info = (B(info[0]), B(info[1]), B(info[2]), B(info[3]))
+    return law_arrays, B(cfg), B(icfg), state, path, plant, B(scal), B(action), out, info, trace
+
+
 @njit(cache=True)
-def run_single(
-    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
-    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
-):  # fmt: skip
+def run_single(law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace):
     """Env 0 from its current (reset) state to the end of the episode. Returns (n, bad):
     n steps recorded; bad is 1 when the controller's action was not finite (nothing stepped
-    then; the caller raises as the env would). The loop runs on borrowed views of the arrays
-    (no reference counting per step; see contour_env.env.borrow): same arithmetic."""
-    B = borrowed
+    then; the caller raises as the env would). ``law_arrays``: :class:`.laws.CompiledLaw`;
+    the env's records (:mod:`contour_env.env.layout`); ``trace``: :class:`EpisodeTrace`. The
+    loop runs on borrowed views of the arrays (no reference counting per step; see
+    contour_env.env.borrow): same arithmetic."""
     return _run_single(
-        kind, B(fp), B(st), B(flim), B(cfg), B(icfg), B(obs_tab), B(z), B(ax), B(k), B(eps),
-        B(est), B(status), B(seed), B(ref_pav), B(frame), B(scal), B(seg_type), B(seg_data),
-        B(seg_bounds), B(mat_T), B(mat_h), B(cont), B(nl), B(pidx), B(action), B(obs),
-        B(reward), B(terminated), B(truncated), B(scratch),
-        (B(info[0]), B(info[1]), B(info[2]), B(info[3])),
-        B(rec_time), B(rec_eps), B(rec_pos), B(rec_ref), B(rec_force),
-    )  # fmt: skip
+        *borrowed_inputs(law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace)
+    )
 
 
 @njit(cache=True)
-def _run_single(
-    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
-    terminated, truncated, scratch, info, rec_time, rec_eps, rec_pos, rec_ref, rec_force,
-):  # fmt: skip
+def _run_single(law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace):
+    z, ax, k = state.z, state.ax, state.k
+    kind, fp, st, flim = law_arrays
     A = z.shape[1]
     n_steps = icfg[I_NSTEPS]
     n_max = n_steps - 1
@@ -78,39 +83,23 @@ def _run_single(
     b = 0
     for n in range(n_max):
         kk = min(k[b], n_steps - 1)
-        law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work)
+        law(kind, A, b, kk, T, ax, path.ref_pav, path.frame, scal, fp, st, u, work)
         if not _action(A, b, u, flim, action):
             return n, 1
         if A == 2:
-            _step_one(
-                2, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
-                frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
-                obs, reward, terminated, truncated, scratch, info,
-            )  # fmt: skip
+            _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
         else:
-            _step_one(
-                A, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
-                frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action,
-                obs, reward, terminated, truncated, scratch, info,
-            )  # fmt: skip
-        kb = k[b]
-        rec_time[n] = kb * T
-        rec_eps[n] = eps[b]
-        kk = min(kb, n_steps - 1)
-        for i in range(A):
-            rec_pos[n, i] = z[b, i, 0]
-            rec_ref[n, i] = ref_pav[kk, 0, i]
-            rec_force[n, i] = ax[AX_APPLIED, b, i]
-        if terminated[b] or truncated[b]:
+            _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
+        record_step(n, b, A, T, n_steps, state, path, trace)
+        if out.terminated[b] or out.truncated[b]:
             return n + 1, 0
     return n_max, 0
 
 
 @njit(cache=True, parallel=True)
 def run_batch(
-    kind, fp, st, flim, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-    scal, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, obs, reward,
-    terminated, truncated, scratch, info, sq, peak, count, failed, bad, trace, steps,
+    law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, sq, peak, count, failed,
+    bad, trace, steps,
 ):  # fmt: skip
     """Every env of the batch from its current (reset) state to the end of its episode, each
     on its own thread, accumulating what ``agents.compare.robustness`` accumulates: Σ min(ε,
@@ -118,6 +107,9 @@ def run_batch(
     as +inf where not finite). ``trace`` (n_max, B) or (0, B): ε per step while running (NaN
     where not finite). ``steps[b]``: the env's episode length; ``bad[b]``: 1 if its
     controller's action went non-finite (the env stops there)."""
+    kind, fp, st, flim = law_arrays
+    z, ax, k, eps = state.z, state.ax, state.k, state.eps
+    terminated, truncated = out.terminated, out.truncated
     A = z.shape[1]
     n_steps = icfg[I_NSTEPS]
     n_max = n_steps - 1
@@ -130,22 +122,14 @@ def run_batch(
         work = np.zeros(WORK_SIZE)
         for n in range(n_max):
             kk = min(k[b], n_steps - 1)
-            law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work)
+            law(kind, A, b, kk, T, ax, path.ref_pav, path.frame, scal, fp, st, u, work)
             if not _action(A, b, u, flim, action):
                 bad[b] = 1
                 break
             if A == 2:
-                _step_one(
-                    2, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
-                    frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx,
-                    action, obs, reward, terminated, truncated, scratch, info,
-                )  # fmt: skip
+                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
             else:
-                _step_one(
-                    A, b, cfg, icfg, obs_tab, z, z2, ax, k, eps, est, status, seed, ref_pav,
-                    frame, seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx,
-                    action, obs, reward, terminated, truncated, scratch, info,
-                )  # fmt: skip
+                _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
             e = eps[b]
             if not math.isfinite(e):
                 e = math.inf

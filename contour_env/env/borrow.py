@@ -66,3 +66,19 @@ def _alias_of_argument(lhs, args, alias_map, arg_aliases):
 
 
 ir_utils.alias_func_extensions[(borrowed.__name__, __name__)] = _alias_of_argument
+
+
+def _alias_of_fields(lhs, args, alias_map, arg_aliases):
+    # ``rec = Record(a, b, ...)`` makes rec an alias of every array it holds
+    for arg in args:
+        ir_utils._add_alias(lhs, arg.name, alias_map, arg_aliases)
+
+
+def register_record(cls):
+    """Tell numba's alias analysis that a record (a named tuple of arrays, built in compiled
+    code) aliases the arrays it holds. Without it the parfor pass of a ``parallel=True``
+    function drops the stores made through a record built in its ``prange`` body (a named
+    tuple's fields are not seen as the arrays they are: every reward of the parallel env step
+    was lost). Returns ``cls``."""
+    ir_utils.alias_func_extensions[(cls.__name__, cls.__module__)] = _alias_of_fields
+    return cls

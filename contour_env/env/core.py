@@ -19,6 +19,15 @@ from ..plants import PlantParams, pack_params
 from ..plants.discretize import state_size
 from ..plants.params import check_param_ranges, one_params_per_env
 from . import kernel as K
+from .layout import (
+    REASON_BY_STATUS,
+    TERMINATION_REASONS,
+    EnvState,
+    PathArrays,
+    PlantArrays,
+    StepOutputs,
+    zero_outputs,
+)
 
 PARALLEL_MIN_ENVS = 256
 
@@ -149,15 +158,7 @@ class StepThreads:
         return result
 
 
-TERMINATION_REASONS = {
-    K.STATUS_CONTOUR_LIMIT: "contour_error_limit",
-    K.STATUS_NONFINITE: "non_finite_state",
-    K.STATUS_TRACKING_LIMIT: "tracking_error_limit",
-}
-# indexed by status code ("" while running), for the batched info
-_REASON_BY_STATUS = np.array(
-    ["", "contour_error_limit", "non_finite_state", "tracking_error_limit"]
-)
+_REASON_BY_STATUS = np.array(REASON_BY_STATUS)  # indexed by status code, batched info
 
 
 DISTURBANCE_PHASES = ("random", "fixed")
@@ -303,6 +304,68 @@ class EnvCore:
             [max(1, round(t / self.T)) for t in config.preview_times_s], dtype=np.int64
         )
         self.preview = preview
+        cfg = self._pack_config(config, setup, preview)
+        self.cfg = cfg
+        # the reference-only part of the observation, per reference index (float32)
+        self.obs_tab = np.zeros((self.n_steps, 3 + len(preview) * self.dim), dtype=np.float32)
+        K.observation_table(
+            cfg, preview, self.ref_pav, self.frame, self.scal, self.n_steps, self.dim, self.obs_tab
+        )
+        self.icfg = np.array(
+            [self.n_steps, plant.params.friction_substeps, int(plant.params.computation_delay)],
+            dtype=np.int64,
+        )
+        self.obs_dim = 3 * self.dim + 3 + len(preview) * self.dim
+        B, A = self.n_envs, self.dim
+        ns = plant.initial_state(np.zeros((1, A))).z.shape[2]
+        self.z = np.zeros((B, A, ns))
+        self.ax = np.zeros((K.AX_SIZE, B, A))
+        self.k = np.zeros(B, dtype=np.int64)
+        self.eps = np.zeros(B)
+        self.est = np.zeros((B, A))
+        self.status = np.zeros(B, dtype=np.int64)
+        self.seed = np.zeros(B, dtype=np.uint64)
+        self.obs, self.reward, self.terminated, self.truncated = zero_outputs(B, self.obs_dim)
+        # all True, never written: pass this very array to step() to step every env (the core
+        # then knows, without a scan, that no env was left out)
+        self.all_active = np.ones(B, dtype=bool)
+        self._status_clear = False
+        # stuck at rest where there is static friction (identical structure across the batch)
+        self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
+        self.action = np.zeros((B, A))
+        self.scratch = np.zeros((2 * B, ns))
+        self._all_envs = np.arange(B, dtype=np.int64)
+        self._fresh_info = None
+        # read-only, so one object serves every step (np.broadcast_to costs ~8 µs a call)
+        self._no_reasons = np.broadcast_to(_REASON_BY_STATUS[:1], (B,))
+        self._info_spec = [
+            ((K.INFO_ROWS, B, A), np.float64),
+            ((2, B), np.float64),
+            ((B, A), np.bool_),
+            ((B,), np.int64),
+        ]
+        # empty info arrays: the kernel fills none
+        self._no_info = (
+            np.empty((K.INFO_ROWS, 0, A)),
+            np.empty((2, 0)),
+            np.empty((0, A), dtype=bool),
+            np.empty(0, dtype=np.int64),
+        )
+        # the step's thread policy (see StepThreads; results are identical either way)
+        self.threads = StepThreads(None, B)
+        # the arrays every kernel call starts with, in the kernel's order (fixed for the core's
+        # life: the arrays are written in place, never replaced)
+        p = self.packed
+        self._kernel_arrays = (
+            self.cfg, self.icfg, self.obs_tab, self.z, self.ax, self.k, self.eps, self.est,
+            self.status, self.seed, self.ref_pav, self.frame, self.seg_type, self.seg_data,
+            self.seg_bounds, p.mat_T, p.mat_h, p.cont, p.nl, p.pidx,
+        )  # fmt: skip
+
+    def _pack_config(self, config: EnvConfig, setup: Setup, preview: np.ndarray) -> np.ndarray:
+        """The kernel's float configuration ``cfg`` (slots: contour_env.env.layout): scales,
+        reward weights, guards, noise; the reciprocals the step multiplies by; the preview's
+        scales after slot CFG_SIZE."""
         cfg = np.zeros(K.CFG_SIZE + len(preview))
         cfg[K.C_T] = self.T
         cfg[K.C_ERR_SCALE] = config.error_obs_scale_m
@@ -332,57 +395,53 @@ class EnvCore:
         ):
             cfg[slot] = 1.0 / value
         cfg[K.CFG_SIZE :] = 1.0 / (setup.feedrate_m_s * preview * self.T)
-        self.cfg = cfg
-        # the reference-only part of the observation, per reference index (float32)
-        self.obs_tab = np.zeros((self.n_steps, 3 + len(preview) * self.dim), dtype=np.float32)
-        K.observation_table(
-            cfg, preview, self.ref_pav, self.frame, self.scal, self.n_steps, self.dim, self.obs_tab
+        return cfg
+
+    # --- the kernel's arrays, as records (contour_env.env.layout) ---------------------------
+    def kernel_records(self) -> tuple:
+        """``(EnvState, PathArrays, PlantArrays)`` of this core: its arrays as the compiled
+        step's stages take them (the arrays themselves, not copies)."""
+        p = self.packed
+        return (
+            EnvState(
+                self.z, self.ax, self.k, self.eps, self.est, self.status, self.seed, self.scratch
+            ),
+            PathArrays(
+                self.ref_pav,
+                self.frame,
+                self.obs_tab,
+                self.seg_type,
+                self.seg_data,
+                self.seg_bounds,
+            ),  # fmt: skip
+            PlantArrays(p.mat_T, p.mat_h, p.cont, p.nl, p.pidx),
         )
-        self.icfg = np.array(
-            [self.n_steps, plant.params.friction_substeps, int(plant.params.computation_delay)],
-            dtype=np.int64,
-        )
-        self.obs_dim = 3 * self.dim + 3 + len(preview) * self.dim
-        B, A = self.n_envs, self.dim
-        ns = plant.initial_state(np.zeros((1, A))).z.shape[2]
-        self.z = np.zeros((B, A, ns))
-        self.ax = np.zeros((K.AX_SIZE, B, A))
-        self.k = np.zeros(B, dtype=np.int64)
-        self.eps = np.zeros(B)
-        self.est = np.zeros((B, A))
-        self.status = np.zeros(B, dtype=np.int64)
-        self.seed = np.zeros(B, dtype=np.uint64)
-        self.obs = np.zeros((B, self.obs_dim), dtype=np.float32)
-        self.reward = np.zeros(B)
-        self.terminated = np.zeros(B, dtype=bool)
-        self.truncated = np.zeros(B, dtype=bool)
-        # all True, never written: pass this very array to step() to step every env (the core
-        # then knows, without a scan, that no env was left out)
-        self.all_active = np.ones(B, dtype=bool)
-        self._status_clear = False
-        # stuck at rest where there is static friction (identical structure across the batch)
-        self.stuck0 = (plant.params.static_N > 0).astype(np.float64)
-        self.action = np.zeros((B, A))
-        self.scratch = np.zeros((2 * B, ns))
-        self._all_envs = np.arange(B, dtype=np.int64)
-        self._fresh_info = None
-        # read-only, so one object serves every step (np.broadcast_to costs ~8 µs a call)
-        self._no_reasons = np.broadcast_to(_REASON_BY_STATUS[:1], (B,))
-        self._info_spec = [
-            ((K.INFO_ROWS, B, A), np.float64),
-            ((2, B), np.float64),
-            ((B, A), np.bool_),
-            ((B,), np.int64),
-        ]
-        # empty info arrays: the kernel fills none
-        self._no_info = (
-            np.empty((K.INFO_ROWS, 0, A)),
-            np.empty((2, 0)),
-            np.empty((0, A), dtype=bool),
-            np.empty(0, dtype=np.int64),
-        )
-        # the step's thread policy (see StepThreads; results are identical either way)
-        self.threads = StepThreads(None, B)
+
+    def step_outputs(self) -> StepOutputs:
+        """The arrays the next step writes its outputs into (obs, reward, terminated,
+        truncated)."""
+        return StepOutputs(self.obs, self.reward, self.terminated, self.truncated)
+
+    # --- readouts of the batch (views: valid until the next step) --------------------------
+    @property
+    def positions(self) -> np.ndarray:
+        """True position of every env's axes (B, A), m (the table side of a two-mass axis)."""
+        return self.z[:, :, 0]
+
+    @property
+    def applied_force(self) -> np.ndarray:
+        """Force applied in the last servo period (B, A), N (after the computation delay)."""
+        return self.ax[K.AX_APPLIED]
+
+    @property
+    def saturated(self) -> np.ndarray:
+        """Whether the last period's force was at the force limit (B, A), bool (a copy)."""
+        return self.ax[K.AX_SAT] > 0.0
+
+    @property
+    def no_info(self) -> tuple:
+        """Empty batched-info arrays: a step given them fills no info."""
+        return self._no_info
 
     # --- episode control -------------------------------------------------------------------
     def reset_env(self, b: int, noise_seed: int) -> None:
@@ -426,31 +485,10 @@ class EnvCore:
             if len(noise_seeds) != envs.size:
                 raise ValueError(f"noise_seeds: one per env ({envs.size}), got {len(noise_seeds)}")
             self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
-        p = self.packed
         K.env_reset(
-            envs,
-            self.cfg,
-            self.obs_tab,
-            self.z,
-            self.ax,
-            self.k,
-            self.eps,
-            self.est,
-            self.status,
-            self.seed,
-            self.ref_pav,
-            self.frame,
-            self.seg_type,
-            self.seg_data,
-            self.seg_bounds,
-            p.nl,
-            p.pidx,
-            self.stuck0,
-            self.obs,
-            self.reward,
-            self.terminated,
+            envs, *self._kernel_arrays, self.stuck0, self.obs, self.reward, self.terminated,
             self.truncated,
-        )
+        )  # fmt: skip
 
     def new_info_arrays(self) -> tuple:
         """Fresh (uninitialised) arrays for :meth:`step` to fill with the batched info."""
@@ -539,7 +577,6 @@ class EnvCore:
         which writes those rows anyway): a caller may hand those out without copying them as
         long as it makes every later write go to new arrays too (steps with ``fresh_outputs``,
         :meth:`renew_outputs` before a reset), as the vectorised env does."""
-        p = self.packed
         if info_arrays is None:
             info_arrays = self._no_info
         else:
@@ -554,36 +591,7 @@ class EnvCore:
         else:
             outputs = (self.obs, self.reward, self.terminated, self.truncated)
         bad, n_terminated, n_ended = self.threads(
-            (
-                self.cfg,
-                self.icfg,
-                self.obs_tab,
-                self.z,
-                self.ax,
-                self.k,
-                self.eps,
-                self.est,
-                self.status,
-                self.seed,
-                self.ref_pav,
-                self.frame,
-                self.seg_type,
-                self.seg_data,
-                self.seg_bounds,
-                p.mat_T,
-                p.mat_h,
-                p.cont,
-                p.nl,
-                p.pidx,
-                action,
-                active,
-                outputs[0],
-                outputs[1],
-                outputs[2],
-                outputs[3],
-                self.scratch,
-                info_arrays,
-            )
+            self._kernel_arrays + (action, active, *outputs, self.scratch, info_arrays)
         )
         if bad >= 0:
             raise nonfinite_action_error(action, bad)

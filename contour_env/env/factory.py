@@ -4,44 +4,31 @@ feed-drive plants, :class:`.five_axis_core.FiveAxisCore` for the five-axis machi
 
 from __future__ import annotations
 
+import inspect
+
 from ..cases import FIVE_AXIS_ABORT_CONTOUR_M, build_setup, get_case
 from .core import EnvConfig, EnvCore, StepThreads, check_env_arguments
 from .five_axis_core import FiveAxisCore
 
+# the keywords that describe the setup (build_setup's); every other keyword is an EnvConfig one
+SETUP_KEYWORDS = tuple(
+    name
+    for name, param in inspect.signature(build_setup).parameters.items()
+    if param.kind is inspect.Parameter.KEYWORD_ONLY
+)
+
 
 def make_core(
-    case=None,
-    plant=None,
-    path=None,
-    *,
-    n_envs=1,
-    feedrate_m_s=None,
-    max_accel_m_s2=None,
-    max_jerk_m_s3=None,
-    settle_time_s=None,
-    ideal=False,
-    structural_mode=False,
-    plant_params=None,
-    strict=False,
-    rapid_feed_m_s=None,
-    num_threads=None,
-    **config,
+    case=None, plant=None, path=None, *, n_envs=1, plant_params=None, num_threads=None, **kwargs
 ) -> EnvCore | FiveAxisCore:
-    # num_threads: the step's thread policy (None / "auto": adaptive; see StepThreads)
+    """The core of ``gym.make``'s env: the setup from ``case`` / ``plant`` / ``path`` and the
+    setup keywords (:data:`SETUP_KEYWORDS`, those of :func:`contour_env.cases.build_setup`),
+    the env configuration (:class:`~.core.EnvConfig`) from the others; ``num_threads``: the
+    step's thread policy (None / "auto": adaptive; see :class:`~.core.StepThreads`)."""
+    config = {key: value for key, value in kwargs.items() if key not in SETUP_KEYWORDS}
     check_env_arguments(config)
-    setup = build_setup(
-        case,
-        plant,
-        path,
-        feedrate_m_s=feedrate_m_s,
-        max_accel_m_s2=max_accel_m_s2,
-        max_jerk_m_s3=max_jerk_m_s3,
-        settle_time_s=settle_time_s,
-        ideal=ideal,
-        structural_mode=structural_mode,
-        strict=strict,
-        rapid_feed_m_s=rapid_feed_m_s,
-    )
+    setup_kw = {key: value for key, value in kwargs.items() if key in SETUP_KEYWORDS}
+    setup = build_setup(case, plant, path, **setup_kw)
     if isinstance(case, str):
         # the case's own env settings (e.g. corner-blend: random disturbance phase, encoder
         # noise) unless given here

@@ -64,19 +64,13 @@ import numpy as np
 from ..plants.five_axis import FiveAxisParams, gravity, pack_five_axis
 from ..plants.params import one_params_per_env
 from . import five_axis_kernel as K5
+from .layout import REASON_BY_STATUS, TERMINATION_REASONS, zero_outputs
 
 # half-width of the nearest-point search (reference samples) around the last nearest one;
 # the tip moves about one sample per step, so 64 samples leave a wide margin while it lags
 SEARCH_HALF_WINDOW = 64
 
-TERMINATION_REASONS = {
-    K5.STATUS_CONTOUR_LIMIT: "contour_error_limit",
-    K5.STATUS_NONFINITE: "non_finite_state",
-    K5.STATUS_TRACKING_LIMIT: "tracking_error_limit",
-}
-_REASON_BY_STATUS = np.array(
-    ["", "contour_error_limit", "non_finite_state", "tracking_error_limit"]
-)
+_REASON_BY_STATUS = np.array(REASON_BY_STATUS)  # indexed by status code, batched info
 
 # per-env info arrays: key → (trailing shape, dtype)
 _INFO_FIELDS = {
@@ -200,10 +194,7 @@ class FiveAxisCore:
         self.status = np.zeros(B, dtype=np.int64)
         self.action = np.zeros((B, 5))
         self.seed = np.zeros(B, dtype=np.uint64)
-        self.obs = np.zeros((B, self.obs_dim), dtype=np.float32)
-        self.reward = np.zeros(B)
-        self.terminated = np.zeros(B, dtype=bool)
-        self.truncated = np.zeros(B, dtype=bool)
+        self.obs, self.reward, self.terminated, self.truncated = zero_outputs(B, self.obs_dim)
         self.all_active = np.ones(B, dtype=bool)
         self._all_envs = np.arange(B, dtype=np.int64)
         self._fresh_info = None

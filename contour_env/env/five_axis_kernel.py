@@ -16,8 +16,8 @@ import numpy as np
 from numba import njit
 
 from ..plants.five_axis.plant import five_axis_step_batch
-
-STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE, STATUS_TRACKING_LIMIT = 0, 1, 2, 3
+from .layout import STATUS_CONTOUR_LIMIT, STATUS_NONFINITE, STATUS_OK, STATUS_TRACKING_LIMIT
+from .reward import five_axis_reward, guard_reward
 
 # cfg slots
 (
@@ -333,7 +333,7 @@ def env_step(
         if st != STATUS_OK:
             terminated[b] = True
             truncated[b] = False
-            reward[b] = -cfg[F_GUARD_PENALTY] * (n_steps - k[b])
+            reward[b] = guard_reward(cfg[F_GUARD_PENALTY], n_steps - k[b])
             n_term += 1
             n_end += 1
         else:
@@ -341,11 +341,10 @@ def env_step(
             truncated[b] = k[b] >= n_steps - 1
             if truncated[b]:
                 n_end += 1
-            reward[b] = (
-                -(cfg[F_W_CONTOUR] * (eps[b] + lever * orient[b]) + cfg[F_W_LAG] * track)
-                * inv_scale
-                - cfg[F_W_EFFORT] * effort / 5.0
-            )
+            reward[b] = five_axis_reward(
+                cfg[F_W_CONTOUR], cfg[F_W_LAG], cfg[F_W_EFFORT], inv_scale,
+                eps[b], lever, orient[b], track, effort,
+            )  # fmt: skip
         if ok:
             observe_one(
                 b, cfg, k[b], n_steps, meas, mvel, ref_q, ref_qd, ref_tip, ref_tool, ref_feed,

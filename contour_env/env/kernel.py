@@ -1,9 +1,26 @@
 """The compiled environment step, shared by the single and the vectorised env.
 
-One call: plant step → reference at k+1 → measurement → true contour error → crash guards
-(contour error, tracking error, non-finite state) → reward → observation, for every active env
-of the batch. The single env is a batch of one, so
-the two cannot drift apart.
+One step of one env, :func:`_step_one`, is its stages in order, each a small compiled function
+(inlined: no call is left at run time):
+
+1. command — :func:`command_stage`: the action, clipped to [−1, 1], times the force limit,
+   held one servo period when the plant has the computation delay;
+2. plant — :func:`plant_stage`: the axis model integrated over the period
+   (:func:`contour_env.plants.kernel.axis_step`), with the optional random disturbance;
+3. measurement — :func:`measure_stage`: what the encoders read (quantised, optional noise)
+   and the backward-difference velocity;
+4. tracking error in the path frame — :func:`frame_error_stage`: Fᵀ(x_d − x), and ‖x_d − x‖²;
+5. contour error — the true distance from the tool to the path
+   (:func:`contour_env.contour_error.path_distance`);
+6. guards — :func:`guard_stage`: contour error, tracking error (non-finite state before
+   both);
+7. reward — :mod:`contour_env.env.reward`;
+8. observation — :func:`observe`.
+
+The drivers (:func:`env_step` serial, :func:`env_step_parallel` over numba's threads) run it
+for every active env of the batch; the single env is a batch of one, so the two cannot drift
+apart. What the arrays hold, and the records the stages receive them in, is
+:mod:`contour_env.env.layout`.
 """
 
 from __future__ import annotations
@@ -17,52 +34,68 @@ from ..contour_error import path_distance
 from ..noise import standard_normal, uniform01
 from ..plants.kernel import NL_FD, NL_FMAX, NL_INV_RES, NL_RES, axis_step
 from .borrow import borrowed
-
-# float configuration (cfg)
-(
-    C_T,
-    C_ERR_SCALE,
-    C_VERR_SCALE,
-    C_FEED_SCALE,
+from .layout import (  # noqa: F401  (the layout's names, re-exported: K.AX_MEAS, K.C_T, ...)
+    AX_APPLIED,
+    AX_MEAS,
+    AX_PREV,
+    AX_REF,
+    AX_SAT,
+    AX_SIZE,
+    AX_STUCK,
+    AX_TOFF,
+    AX_UPEND,
+    AX_VEL,
+    C_ABORT,
+    C_ABORT_TRACK2,
     C_ACC_SCALE,
     C_CURV_SCALE,
-    C_W_CONTOUR,
-    C_W_LAG,
-    C_W_EFFORT,
-    C_EPS_SCALE,
-    C_ABORT,
-    C_NOISE_STD,
     C_DIST_AMP,
-    C_OBS_CLIP,
     C_DIST_PHASE_RANDOM,
-    C_INV_T,
-    C_INV_ERR,
-    C_INV_VERR,
-    C_INV_FEED,
-    C_INV_ACC,
-    C_INV_EPS,
-    C_INV_AXES,
-    C_ABORT_TRACK2,
+    C_EPS_SCALE,
+    C_ERR_SCALE,
+    C_FEED_SCALE,
     C_GUARD_PENALTY,
-) = range(24)
-# C_ABORT_TRACK2: the tracking-error guard squared (m²), compared with ‖x_d − x‖² (no root);
-# C_GUARD_PENALTY: P ≥ 0, the penalty of one step at the guards, charged for the terminating
-# step and every step a termination skips (see EnvConfig.guard_penalty)
-# cfg[CFG_SIZE + j]: 1 / (feed scale · preview time j), the preview's scale; the reciprocals
-# are computed once by EnvCore so that the per-step code multiplies instead of dividing
-CFG_SIZE = 24
-# integer configuration (icfg)
-I_NSTEPS, I_NSUB, I_DELAY = range(3)
-ICFG_SIZE = 3
-# per-axis env state and readout rows (ax[row, b, axis]; row-major so each row of the batch
-# is contiguous and the info arrays are plain copies)
-# AX_TOFF: the env's time offset of the plant's periodic disturbance d(t) (s), drawn per episode
-AX_STUCK, AX_UPEND, AX_MEAS, AX_VEL, AX_PREV, AX_APPLIED, AX_SAT, AX_REF, AX_TOFF = range(9)
-AX_SIZE = 9
-# termination status codes
-STATUS_OK, STATUS_CONTOUR_LIMIT, STATUS_NONFINITE, STATUS_TRACKING_LIMIT = 0, 1, 2, 3
-# noise streams
-_STREAM_MEAS, _STREAM_DIST, _STREAM_PHASE = 0, 1, 2
+    C_INV_ACC,
+    C_INV_AXES,
+    C_INV_EPS,
+    C_INV_ERR,
+    C_INV_FEED,
+    C_INV_T,
+    C_INV_VERR,
+    C_NOISE_STD,
+    C_OBS_CLIP,
+    C_T,
+    C_VERR_SCALE,
+    C_W_CONTOUR,
+    C_W_EFFORT,
+    C_W_LAG,
+    CFG_SIZE,
+    I_DELAY,
+    I_NSTEPS,
+    I_NSUB,
+    ICFG_SIZE,
+    INFO_ESTIMATE,
+    INFO_FORCE,
+    INFO_MEASURED,
+    INFO_POSITION,
+    INFO_REFERENCE,
+    INFO_ROWS,
+    INFO_TRACKING,
+    INFO_VELOCITY,
+    STATUS_CONTOUR_LIMIT,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_TRACKING_LIMIT,
+    STREAM_DIST,
+    STREAM_MEAS,
+    STREAM_PHASE,
+    EnvState,
+    EpisodeTrace,
+    PathArrays,
+    PlantArrays,
+    StepOutputs,
+)
+from .reward import feed_drive_reward, guard_reward
 
 
 @njit(cache=True)
@@ -99,6 +132,18 @@ def _copy_table_row(obs, b, o, obs_tab, kk, n):
 
 
 @njit(cache=True, inline="always")
+def _task_frame_error(dim, b, kk, frame, ref_pav, ref_row, ax, ax_row, scale, clip, obs, o):
+    # obs[b, o + r] = clip(scale · Σ_c F[c, r] (ref_pav[kk, ref_row, c] − ax[ax_row, b, c]));
+    # indexed by the range variable itself, as _copy_table_row (no negative-index check)
+    for jj in range(o, o + dim):
+        r = jj - o
+        acc = 0.0
+        for c in range(dim):
+            acc += frame[kk, c, r] * (ref_pav[kk, ref_row, c] - ax[ax_row, b, c])
+        obs[b, jj] = min(max(acc * scale, -clip), clip)
+
+
+@njit(cache=True, inline="always")
 def observe(dim, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
     """Fill obs[b] for reference index kk from the measured state (layout: see ContouringEnv);
     the reference-only fields come from ``obs_tab`` (:func:`observation_table`). ``dim`` is
@@ -107,21 +152,10 @@ def observe(dim, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs):
     clip = cfg[C_OBS_CLIP]
     inv_err = cfg[C_INV_ERR]
     inv_verr = cfg[C_INV_VERR]
-    o = 0
-    # task-frame position error Fᵀ(x_d − x_meas), scaled
-    for r in range(dim):
-        acc = 0.0
-        for c in range(dim):
-            acc += frame[kk, c, r] * (ref_pav[kk, 0, c] - ax[AX_MEAS, b, c])
-        obs[b, o] = min(max(acc * inv_err, -clip), clip)
-        o += 1
-    # task-frame velocity error Fᵀ(v_d − v_meas), scaled
-    for r in range(dim):
-        acc = 0.0
-        for c in range(dim):
-            acc += frame[kk, c, r] * (ref_pav[kk, 1, c] - ax[AX_VEL, b, c])
-        obs[b, o] = min(max(acc * inv_verr, -clip), clip)
-        o += 1
+    # task-frame position error Fᵀ(x_d − x_meas) and velocity error Fᵀ(v_d − v_meas), scaled
+    _task_frame_error(dim, b, kk, frame, ref_pav, 0, ax, AX_MEAS, inv_err, clip, obs, 0)
+    _task_frame_error(dim, b, kk, frame, ref_pav, 1, ax, AX_VEL, inv_verr, clip, obs, dim)
+    o = 2 * dim
     n_tab = obs_tab.shape[1]
     if n_tab == 3 + 3 * dim:
         # the default three preview times: a literal length, so the copy is unrolled
@@ -148,24 +182,11 @@ def _encoder(x, seed_b, step, i, p, cfg, nl):
     x plus the optional measurement noise, rounded to the nearest count."""
     xm = x
     if cfg[C_NOISE_STD] > 0.0:
-        xm += cfg[C_NOISE_STD] * standard_normal(seed_b, step, i, _STREAM_MEAS)
+        xm += cfg[C_NOISE_STD] * standard_normal(seed_b, step, i, STREAM_MEAS)
     res = nl[p, i, NL_RES]
     if res > 0.0:
         xm = np.floor(xm * nl[p, i, NL_INV_RES] + 0.5) * res
     return xm
-
-
-# rows of the float block of the batched info (each (B, A)); info_s rows: time, contour error
-(
-    INFO_POSITION,
-    INFO_MEASURED,
-    INFO_VELOCITY,
-    INFO_REFERENCE,
-    INFO_ESTIMATE,
-    INFO_TRACKING,
-    INFO_FORCE,
-) = range(7)
-INFO_ROWS = 7
 
 
 @njit(cache=True, inline="always")
@@ -202,95 +223,79 @@ def fill_info_envs(envs, T, k, z, ax, eps, est, info):
 
 
 @njit(cache=True, inline="always")
-def _step_one(
-    n_axes,
-    b,
-    cfg,
-    icfg,
-    obs_tab,
-    z,
-    z2,
-    ax,
-    k,
-    eps,
-    est,
-    status,
-    seed,
-    ref_pav,
-    frame,
-    seg_type,
-    seg_data,
-    seg_bounds,
-    mat_T,
-    mat_h,
-    cont,
-    nl,
-    pidx,
-    action,
-    obs,
-    reward,
-    terminated,
-    truncated,
-    scratch,
-    info,
-):
-    # one env, one servo period (the body shared by the serial and the parallel driver);
-    # n_axes = z.shape[1], passed in so that a driver can give it as a literal
+def command_stage(b, i, p, delay, action, ax, nl):
+    """Stage 1, command of axis i: a = clip(action, −1, 1) times the force limit (N), held one
+    period when the plant has the computation delay (``delay``); the force applied this
+    period, with the saturation flag and the action kept in ``ax``. Returns (u, a²)."""
+    a = min(max(action[b, i], -1.0), 1.0)
+    ax[AX_PREV, b, i] = a
+    cmd = a * nl[p, i, NL_FMAX]
+    if delay:
+        u = ax[AX_UPEND, b, i]
+        ax[AX_UPEND, b, i] = cmd
+    else:
+        u = cmd
+    ax[AX_APPLIED, b, i] = u
+    ax[AX_SAT, b, i] = 1.0 if abs(u) >= nl[p, i, NL_FMAX] * (1.0 - 1e-12) else 0.0
+    return u, a * a
+
+
+@njit(cache=True, inline="always")
+def plant_stage(n_axes, b, i, p, kb, u, cfg, icfg, state, z2, plant):
+    """Stage 2, plant of axis i: the axis model over one servo period under the force u (N)
+    (:func:`contour_env.plants.kernel.axis_step`, state row b·A + i of ``z2``), with the
+    random disturbance of amplitude ``cfg[C_DIST_AMP]`` (N) when it is on."""
     T = cfg[C_T]
-    inv_T = cfg[C_INV_T]
-    n_steps = icfg[I_NSTEPS]
-    n_sub = icfg[I_NSUB]
-    delay = icfg[I_DELAY] != 0
+    ax = state.ax
     dist_amp = cfg[C_DIST_AMP]
-    p = pidx[b]
-    kb = k[b]
-    t0 = kb * T
-    effort = 0.0
-    for i in range(n_axes):
-        a = min(max(action[b, i], -1.0), 1.0)
-        ax[AX_PREV, b, i] = a
-        effort += a * a
-        cmd = a * nl[p, i, NL_FMAX]
-        if delay:
-            u = ax[AX_UPEND, b, i]
-            ax[AX_UPEND, b, i] = cmd
-        else:
-            u = cmd
-        ax[AX_APPLIED, b, i] = u
-        ax[AX_SAT, b, i] = 1.0 if abs(u) >= nl[p, i, NL_FMAX] * (1.0 - 1e-12) else 0.0
-        w_extra = 0.0
-        if dist_amp > 0.0:
-            w_extra = dist_amp * (2.0 * uniform01(seed[b], kb, i, _STREAM_DIST) - 1.0)
-        ax[AX_STUCK, b, i] = axis_step(
-            z2,
-            b * n_axes + i,
-            ax[AX_STUCK, b, i],
-            u,
-            t0 + ax[AX_TOFF, b, i],
-            T,
-            n_sub,
-            mat_T,
-            mat_h,
-            cont,
-            nl,
-            p,
-            i,
-            scratch,
-            2 * b,
-            w_extra,
-        )
-    kb += 1
-    k[b] = kb
-    kk = min(kb, n_steps - 1)
+    w_extra = 0.0
+    if dist_amp > 0.0:
+        w_extra = dist_amp * (2.0 * uniform01(state.seed[b], kb, i, STREAM_DIST) - 1.0)
+    ax[AX_STUCK, b, i] = axis_step(
+        z2,
+        b * n_axes + i,
+        ax[AX_STUCK, b, i],
+        u,
+        kb * T + ax[AX_TOFF, b, i],
+        T,
+        icfg[I_NSUB],
+        plant.mat_T,
+        plant.mat_h,
+        plant.cont,
+        plant.nl,
+        p,
+        i,
+        state.scratch,
+        2 * b,
+        w_extra,
+    )
+
+
+@njit(cache=True, inline="always")
+def measure_stage(n_axes, b, kb, p, cfg, state, nl):
+    """Stage 3, measurement: each encoder's reading at sample ``kb`` (quantised, optional
+    noise) and the backward-difference velocity (m/s). Returns whether the plant state is
+    finite."""
+    z, ax = state.z, state.ax
+    inv_T = cfg[C_INV_T]
     finite = True
-    te2 = 0.0  # ‖x_d − x‖², the squared tracking error (true position)
     for i in range(n_axes):
         x = z[b, i, 0]
         if not (math.isfinite(x) and math.isfinite(z[b, i, 1])):
             finite = False
-        xm = _encoder(_drive_position(z, b, i), seed[b], kb, i, p, cfg, nl)
+        xm = _encoder(_drive_position(z, b, i), state.seed[b], kb, i, p, cfg, nl)
         ax[AX_VEL, b, i] = (xm - ax[AX_MEAS, b, i]) * inv_T
         ax[AX_MEAS, b, i] = xm
+    return finite
+
+
+@njit(cache=True, inline="always")
+def frame_error_stage(n_axes, b, kk, state, path):
+    """Stage 4, tracking error in the path frame: est = Fᵀ(x_d − x) (m; est[0] along the
+    tangent, the lag), the reference kept in ``ax``. Returns ‖x_d − x‖² (m²)."""
+    z, ax, est = state.z, state.ax, state.est
+    frame, ref_pav = path.frame, path.ref_pav
+    te2 = 0.0
     for r in range(n_axes):
         acc = 0.0
         for c in range(n_axes):
@@ -299,40 +304,76 @@ def _step_one(
         ax[AX_REF, b, r] = ref_pav[kk, 0, r]
         d = ref_pav[kk, 0, r] - z[b, r, 0]
         te2 += d * d
+    return te2
+
+
+@njit(cache=True, inline="always")
+def contour_error_stage(n_axes, b, state, path):
+    """Stage 5, the true contour error: the distance (m) from the tool to the path."""
+    z = state.z
+    pz = z[b, 2, 0] if n_axes == 3 else 0.0
+    return path_distance(path.seg_type, path.seg_data, path.seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
+
+
+@njit(cache=True, inline="always")
+def guard_stage(e, te2, cfg):
+    """Stage 6, guards: the status after a finite step with contour error e (m) and squared
+    tracking error te2 (m²)."""
+    if e > cfg[C_ABORT]:
+        return STATUS_CONTOUR_LIMIT
+    if te2 > cfg[C_ABORT_TRACK2]:
+        return STATUS_TRACKING_LIMIT
+    return STATUS_OK
+
+
+@njit(cache=True, inline="always")
+def _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info):
+    """One env, one servo period: the stages of the module docstring in order (the body
+    shared by the serial and the parallel driver and the compiled episode loops of
+    :mod:`agents.compiled`). ``n_axes`` = z.shape[1], passed in so that a driver can give it
+    as a literal; ``z2`` the plant states as rows (b·A + i)."""
+    n_steps = icfg[I_NSTEPS]
+    delay = icfg[I_DELAY] != 0
+    ax, k, eps, est, status = state.ax, state.k, state.eps, state.est, state.status
+    obs, reward = out.obs, out.reward
+    p = plant.pidx[b]
+    kb = k[b]
+    effort = 0.0
+    for i in range(n_axes):
+        u, a2 = command_stage(b, i, p, delay, action, ax, plant.nl)
+        effort += a2
+        plant_stage(n_axes, b, i, p, kb, u, cfg, icfg, state, z2, plant)
+    kb += 1
+    k[b] = kb
+    kk = min(kb, n_steps - 1)
+    finite = measure_stage(n_axes, b, kb, p, cfg, state, plant.nl)
+    te2 = frame_error_stage(n_axes, b, kk, state, path)
     if finite:
-        pz = z[b, 2, 0] if n_axes == 3 else 0.0
-        e = path_distance(seg_type, seg_data, seg_bounds, z[b, 0, 0], z[b, 1, 0], pz)
+        e = contour_error_stage(n_axes, b, state, path)
         eps[b] = e
-        st = STATUS_OK
-        if e > cfg[C_ABORT]:
-            st = STATUS_CONTOUR_LIMIT
-        elif te2 > cfg[C_ABORT_TRACK2]:
-            st = STATUS_TRACKING_LIMIT
+        st = guard_stage(e, te2, cfg)
         status[b] = st
         if st == STATUS_OK:
-            reward[b] = (
-                -(cfg[C_W_CONTOUR] * e + cfg[C_W_LAG] * abs(est[b, 0])) * cfg[C_INV_EPS]
-                - cfg[C_W_EFFORT] * effort * cfg[C_INV_AXES]
-            )
+            reward[b] = feed_drive_reward(
+                cfg[C_W_CONTOUR], cfg[C_W_LAG], cfg[C_W_EFFORT], cfg[C_INV_EPS],
+                cfg[C_INV_AXES], e, est[b, 0], effort,
+            )  # fmt: skip
         else:
-            # a guard ended the episode: this step and each of the n_steps − 1 − kb it skips
-            # count the guard penalty P, no less than any step that runs, so ending early
-            # never pays (at least this step, should a caller step past the end)
-            reward[b] = -cfg[C_GUARD_PENALTY] * max(n_steps - kb, 1)
-        observe(n_axes, b, kk, cfg, obs_tab, ax, ref_pav, frame, obs)
+            # this step and each of the n_steps − 1 − kb it skips (at least this one)
+            reward[b] = guard_reward(cfg[C_GUARD_PENALTY], max(n_steps - kb, 1))
+        observe(n_axes, b, kk, cfg, path.obs_tab, ax, path.ref_pav, path.frame, obs)
     else:
         eps[b] = math.inf
         status[b] = STATUS_NONFINITE
-        # a finite penalty: the guard penalty for this step and every skipped one (as above);
-        # observation zeroed
-        reward[b] = -cfg[C_GUARD_PENALTY] * max(n_steps - kb, 1)
+        # a finite penalty (as a guard's), the observation zeroed
+        reward[b] = guard_reward(cfg[C_GUARD_PENALTY], max(n_steps - kb, 1))
         for o in range(obs.shape[1]):
             obs[b, o] = 0.0
-    terminated[b] = status[b] != STATUS_OK
-    truncated[b] = (kb >= n_steps - 1) and not terminated[b]
+    out.terminated[b] = status[b] != STATUS_OK
+    out.truncated[b] = (kb >= n_steps - 1) and not out.terminated[b]
     # the batched info arrays (empty ones: not wanted), written while the env's data is hot
     if info[3].shape[0] > 0:
-        fill_info(n_axes, b, T, k, z, ax, eps, est, info)
+        fill_info(n_axes, b, cfg[C_T], k, state.z, ax, eps, est, info)
 
 
 @njit(cache=True)
@@ -346,49 +387,66 @@ def first_bad_action(action, active):
     return -1
 
 
+@njit(cache=True, inline="always")
+def _records(z, ax, k, eps, est, status, seed, scratch, ref_pav, frame, obs_tab, seg_type,
+             seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, obs, reward, terminated,
+             truncated):  # fmt: skip
+    """The arrays of an entry point as the step's records (:mod:`.layout`)."""
+    return (
+        EnvState(z, ax, k, eps, est, status, seed, scratch),
+        PathArrays(ref_pav, frame, obs_tab, seg_type, seg_data, seg_bounds),
+        PlantArrays(mat_T, mat_h, cont, nl, pidx),
+        StepOutputs(obs, reward, terminated, truncated),
+    )
+
+
+@njit(cache=True, inline="always")
+def borrowed_records(state, path, plant, out):
+    """The records with every array borrowed (:func:`contour_env.env.borrow.borrowed`), for a
+    compiled loop called from Python with them (:mod:`agents.compiled`)."""
+    B = borrowed
+    return _records(
+        B(state.z), B(state.ax), B(state.k), B(state.eps), B(state.est), B(state.status),
+        B(state.seed), B(state.scratch), B(path.ref_pav), B(path.frame), B(path.obs_tab),
+        B(path.seg_type), B(path.seg_data), B(path.seg_bounds), B(plant.mat_T), B(plant.mat_h),
+        B(plant.cont), B(plant.nl), B(plant.pidx), B(out.obs), B(out.reward),
+        B(out.terminated), B(out.truncated),
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def record_step(n, b, n_axes, T, n_steps, state, path, trace):
+    """Row n of an episode's trace (:class:`~contour_env.env.layout.EpisodeTrace`) after a
+    step of env b: time (s), true contour error (m), position, reference and applied force
+    per axis — what :func:`contour_env.evaluation.run_episode` records."""
+    kb = state.k[b]
+    trace.time[n] = kb * T
+    trace.eps[n] = state.eps[b]
+    kk = min(kb, n_steps - 1)
+    for i in range(n_axes):
+        trace.pos[n, i] = state.z[b, i, 0]
+        trace.ref[n, i] = path.ref_pav[kk, 0, i]
+        trace.force[n, i] = state.ax[AX_APPLIED, b, i]
+
+
 @njit(cache=True)
 def env_step(
-    cfg,
-    icfg,
-    obs_tab,
-    z,
-    ax,
-    k,
-    eps,
-    est,
-    status,
-    seed,
-    ref_pav,
-    frame,
-    seg_type,
-    seg_data,
-    seg_bounds,
-    mat_T,
-    mat_h,
-    cont,
-    nl,
-    pidx,
-    action,
-    active,
-    obs,
-    reward,
-    terminated,
-    truncated,
-    scratch,
-    info,
-):
+    cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type, seg_data,
+    seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
+    truncated, scratch, info,
+):  # fmt: skip
     """Advance every active env by one servo period, in place (serial driver).
 
     Returns (bad, n_terminated, n_ended): bad is -1, or the index of the first env whose action
     is not finite (nothing is changed then); n_terminated and n_ended count the stepped envs
     now terminated, and terminated or truncated.
 
-    Shapes: z (B, A, ns); ax (AX_SIZE, B, A); k, status (B,) int64; eps (B,); est (B, A);
-    seed (B,) uint64; ref_pav (n, 3, 3) rows [position, velocity, acceleration];
-    frame (n, 3, 3) columns [t n b]; obs_tab (n, n_static) float32 (observation_table);
-    action (B, A) in [-1, 1] of the force limit; obs (B, O) float32; scratch (2 B, ns)
-    (rows 2b, 2b + 1: work space of env b); info: the tuple of batched info arrays of
-    :func:`fill_info`, filled for every stepped env (empty arrays: none).
+    The arrays (:mod:`.layout`): cfg, icfg; obs_tab, ref_pav, frame and the segment table;
+    z (B, A, ns), ax (AX_SIZE, B, A), k, status (B,) int64, eps (B,), est (B, A), seed (B,)
+    uint64; the packed plant parameters and pidx; action (B, A) in [-1, 1] of the force limit;
+    active (B,) bool; obs (B, O) float32, reward, terminated, truncated (B,); scratch (2 B, ns);
+    info: the tuple of batched info arrays of :func:`fill_info`, filled for every stepped env
+    (empty arrays: none). Python passes them one by one (cheaper to call than records).
 
     Two axes are given to the step as a literal: the compiler unrolls the per-axis loops and
     interleaves the two axes (measured 1.1-2x faster); other axis counts take the generic body.
@@ -406,147 +464,34 @@ def env_step(
     # the increments and decrements), where a non-inlined per-env or per-chunk function
     # received its arrays as arguments and paid a call and a check per array and env
     # (issue 35: 1.6x slower)
-    cfg = borrowed(cfg)
-    icfg = borrowed(icfg)
-    obs_tab = borrowed(obs_tab)
-    z = borrowed(z)
-    ax = borrowed(ax)
-    k = borrowed(k)
-    eps = borrowed(eps)
-    est = borrowed(est)
-    status = borrowed(status)
-    seed = borrowed(seed)
-    ref_pav = borrowed(ref_pav)
-    frame = borrowed(frame)
-    seg_type = borrowed(seg_type)
-    seg_data = borrowed(seg_data)
-    seg_bounds = borrowed(seg_bounds)
-    mat_T = borrowed(mat_T)
-    mat_h = borrowed(mat_h)
-    cont = borrowed(cont)
-    nl = borrowed(nl)
-    pidx = borrowed(pidx)
-    action = borrowed(action)
-    active = borrowed(active)
-    obs = borrowed(obs)
-    reward = borrowed(reward)
-    terminated = borrowed(terminated)
-    truncated = borrowed(truncated)
-    scratch = borrowed(scratch)
-    z2 = borrowed(z2)
-    info = (borrowed(info[0]), borrowed(info[1]), borrowed(info[2]), borrowed(info[3]))
-    n_envs = z.shape[0]
-    n_axes = z.shape[1]
+    B = borrowed
+    state, path, plant, out = _records(
+        B(z), B(ax), B(k), B(eps), B(est), B(status), B(seed), B(scratch), B(ref_pav),
+        B(frame), B(obs_tab), B(seg_type), B(seg_data), B(seg_bounds), B(mat_T), B(mat_h),
+        B(cont), B(nl), B(pidx), B(obs), B(reward), B(terminated), B(truncated),
+    )  # fmt: skip
+    cfg, icfg, action, active, z2 = B(cfg), B(icfg), B(action), B(active), B(z2)
+    info = (B(info[0]), B(info[1]), B(info[2]), B(info[3]))
+    n_envs, n_axes = z.shape[0], z.shape[1]
     n_terminated = 0
     n_ended = 0
-    if n_axes == 2:
-        for b in range(n_envs):
-            if active[b]:
-                _step_one(
-                    2,
-                    b,
-                    cfg,
-                    icfg,
-                    obs_tab,
-                    z,
-                    z2,
-                    ax,
-                    k,
-                    eps,
-                    est,
-                    status,
-                    seed,
-                    ref_pav,
-                    frame,
-                    seg_type,
-                    seg_data,
-                    seg_bounds,
-                    mat_T,
-                    mat_h,
-                    cont,
-                    nl,
-                    pidx,
-                    action,
-                    obs,
-                    reward,
-                    terminated,
-                    truncated,
-                    scratch,
-                    info,
-                )
-                n_terminated += 1 if terminated[b] else 0
-                n_ended += 1 if terminated[b] or truncated[b] else 0
-    else:
-        for b in range(n_envs):
-            if active[b]:
-                _step_one(
-                    n_axes,
-                    b,
-                    cfg,
-                    icfg,
-                    obs_tab,
-                    z,
-                    z2,
-                    ax,
-                    k,
-                    eps,
-                    est,
-                    status,
-                    seed,
-                    ref_pav,
-                    frame,
-                    seg_type,
-                    seg_data,
-                    seg_bounds,
-                    mat_T,
-                    mat_h,
-                    cont,
-                    nl,
-                    pidx,
-                    action,
-                    obs,
-                    reward,
-                    terminated,
-                    truncated,
-                    scratch,
-                    info,
-                )
-                n_terminated += 1 if terminated[b] else 0
-                n_ended += 1 if terminated[b] or truncated[b] else 0
+    for b in range(n_envs):
+        if active[b]:
+            if n_axes == 2:
+                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            else:
+                _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            n_terminated += 1 if out.terminated[b] else 0
+            n_ended += 1 if out.terminated[b] or out.truncated[b] else 0
     return -1, n_terminated, n_ended
 
 
 @njit(cache=True, parallel=True)
 def env_step_parallel(
-    cfg,
-    icfg,
-    obs_tab,
-    z,
-    ax,
-    k,
-    eps,
-    est,
-    status,
-    seed,
-    ref_pav,
-    frame,
-    seg_type,
-    seg_data,
-    seg_bounds,
-    mat_T,
-    mat_h,
-    cont,
-    nl,
-    pidx,
-    action,
-    active,
-    obs,
-    reward,
-    terminated,
-    truncated,
-    scratch,
-    info,
-):
+    cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type, seg_data,
+    seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
+    truncated, scratch, info,
+):  # fmt: skip
     """As :func:`env_step`, with the envs spread over numba's threads (``numba.set_num_threads``
     before the call sets how many): a ``prange`` over the envs, which numba's static schedule
     cuts into one contiguous block of nearly equal size per thread (one hand-off per call).
@@ -561,115 +506,35 @@ def env_step_parallel(
     # the arrays as they are, not borrowed: numba's thread team receives them as raw buffers,
     # with no reference count to update (borrowed views measured no faster here; see
     # contour_env.env.borrow on views in a prange). The step is inlined in the loop body, so
-    # the per-env code makes no call (issue 35: a non-inlined per-chunk function cost 1.6x)
-    n_envs = z.shape[0]
-    n_axes = z.shape[1]
+    # the per-env code makes no call (issue 35: a non-inlined per-chunk function cost 1.6x);
+    # the records are made in the body, from the arrays the thread team received
+    n_envs, n_axes = z.shape[0], z.shape[1]
     n_terminated = 0
     n_ended = 0
-    if n_axes == 2:
-        for b in prange(n_envs):
-            if active[b]:
-                _step_one(
-                    2,
-                    b,
-                    cfg,
-                    icfg,
-                    obs_tab,
-                    z,
-                    z2,
-                    ax,
-                    k,
-                    eps,
-                    est,
-                    status,
-                    seed,
-                    ref_pav,
-                    frame,
-                    seg_type,
-                    seg_data,
-                    seg_bounds,
-                    mat_T,
-                    mat_h,
-                    cont,
-                    nl,
-                    pidx,
-                    action,
-                    obs,
-                    reward,
-                    terminated,
-                    truncated,
-                    scratch,
-                    info,
-                )
-                n_terminated += 1 if terminated[b] else 0
-                n_ended += 1 if terminated[b] or truncated[b] else 0
-    else:
-        for b in prange(n_envs):
-            if active[b]:
-                _step_one(
-                    n_axes,
-                    b,
-                    cfg,
-                    icfg,
-                    obs_tab,
-                    z,
-                    z2,
-                    ax,
-                    k,
-                    eps,
-                    est,
-                    status,
-                    seed,
-                    ref_pav,
-                    frame,
-                    seg_type,
-                    seg_data,
-                    seg_bounds,
-                    mat_T,
-                    mat_h,
-                    cont,
-                    nl,
-                    pidx,
-                    action,
-                    obs,
-                    reward,
-                    terminated,
-                    truncated,
-                    scratch,
-                    info,
-                )
-                n_terminated += 1 if terminated[b] else 0
-                n_ended += 1 if terminated[b] or truncated[b] else 0
+    for b in prange(n_envs):
+        if active[b]:
+            state = EnvState(z, ax, k, eps, est, status, seed, scratch)
+            path = PathArrays(ref_pav, frame, obs_tab, seg_type, seg_data, seg_bounds)
+            plant = PlantArrays(mat_T, mat_h, cont, nl, pidx)
+            out = StepOutputs(obs, reward, terminated, truncated)
+            if n_axes == 2:
+                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            else:
+                _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            n_terminated += 1 if terminated[b] else 0
+            n_ended += 1 if terminated[b] or truncated[b] else 0
     return -1, n_terminated, n_ended
 
 
 @njit(cache=True)
 def env_reset(
-    envs,
-    cfg,
-    obs_tab,
-    z,
-    ax,
-    k,
-    eps,
-    est,
-    status,
-    seed,
-    ref_pav,
-    frame,
-    seg_type,
-    seg_data,
-    seg_bounds,
-    nl,
-    pidx,
-    stuck0,
-    obs,
-    reward,
-    terminated,
+    envs, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type,
+    seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, stuck0, obs, reward, terminated,
     truncated,
-):
+):  # fmt: skip
     """Put every env listed in ``envs`` (int64 indices) at rest on the reference start point
-    (k = 0), with its observation, zero reward and no done flags (seeds already in ``seed``)."""
+    (k = 0), with its observation, zero reward and no done flags (seeds already in ``seed``).
+    The arrays in :func:`env_step`'s order (``icfg`` and the plant matrices unused here)."""
     for j in range(envs.shape[0]):
         b = envs[j]
         n_axes = z.shape[1]
@@ -690,7 +555,7 @@ def env_reset(
             # per episode (from the episode seed) unless the config fixes it
             toff = 0.0
             if cfg[C_DIST_PHASE_RANDOM] > 0.0 and nl[p, i, NL_FD] > 0.0:
-                toff = uniform01(seed[b], 0, i, _STREAM_PHASE) / nl[p, i, NL_FD]
+                toff = uniform01(seed[b], 0, i, STREAM_PHASE) / nl[p, i, NL_FD]
             ax[AX_TOFF, b, i] = toff
             ax[AX_MEAS, b, i] = _encoder(_drive_position(z, b, i), seed[b], 0, i, p, cfg, nl)
             ax[AX_VEL, b, i] = 0.0

@@ -19,6 +19,7 @@ the Python path.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 
 import numpy as np
 
@@ -108,6 +109,79 @@ def empty_record(core) -> dict:
         "position": np.empty((n_max, d)),
         "reference": np.empty((n_max, d)),
     }
+
+
+def is_five_axis_env(env) -> bool:
+    """Whether ``env`` (single, wrapped or vectorised) simulates the five-axis machine."""
+    core = getattr(env, "core", None) or getattr(getattr(env, "unwrapped", None), "core", None)
+    return getattr(getattr(core, "setup", None), "family", None) == "five-axis"
+
+
+class AxisRecorder:
+    """What :func:`contour_env.evaluation.run_episode` records per step of env 0 of a
+    feed-drive core (time, true contour error, position, reference, tracking error, applied
+    force), and the :class:`EpisodeRecord` it makes of them."""
+
+    def __init__(self, core):
+        self.core = core
+        self.rec = empty_record(core)
+
+    def record(self, i: int, info: dict) -> None:
+        core, rec, d = self.core, self.rec, self.core.dim
+        kk = min(int(core.k[0]), core.n_steps - 1)
+        rec["time"][i] = core.k[0] * core.T
+        rec["contour_error"][i] = core.eps[0]
+        pos = core.positions[0]
+        ref = core.ref_pav[kk, 0, :d]
+        rec["position"][i] = pos
+        rec["reference"][i] = ref
+        rec["tracking_error"][i] = ref - pos
+        rec["force"][i] = core.applied_force[0]
+
+    def finish(self, n: int, reason) -> EpisodeRecord:
+        return episode_record(self.core, self.rec, n, reason)
+
+
+class FiveAxisRecorder(AxisRecorder):
+    """The five-axis machine's record: the feed-drive record's fields from the step's ``info``
+    plus the orientation error θ (rad) per step; ``tracking_error`` (n, 3) is the tool-tip
+    tracking error p_d − p (m, workpiece frame), the quantity of the env's tracking guard, so
+    that ``completed`` applies the follow limit to the tool tip (joint errors mix m and rad).
+    """
+
+    def __init__(self, core):
+        super().__init__(core)
+        n_max = core.n_steps - 1
+        self.rec["tracking_error"] = np.empty((n_max, 3))
+        self.theta = np.empty(n_max)
+
+    def record(self, i: int, info: dict) -> None:
+        rec = self.rec
+        rec["time"][i] = info["time"]
+        rec["contour_error"][i] = info["contour_error"]
+        rec["position"][i] = info["position"]
+        rec["reference"][i] = info["reference"]
+        rec["tracking_error"][i] = info["reference_tool_tip"] - info["tool_tip"]
+        rec["force"][i] = info["force"]
+        self.theta[i] = info["orientation_error"]
+
+    def finish(self, n: int, reason) -> EpisodeRecord:
+        # the tool tip's resolution is the linear scales' count: the rotary counts are angles
+        # (rad), not comparable with a contour error in m
+        params = self.core.setup.plant.params
+        linear_counts = np.asarray(params.encoder_resolution_m, dtype=float)[:3]
+        return replace(
+            super().finish(n, reason),
+            orientation_error=self.theta[:n].copy(),
+            encoder_resolution_m=linear_counts,
+        )
+
+
+def recorder_for(core) -> AxisRecorder:
+    """The episode recorder of ``core``'s plant family."""
+    if getattr(core.setup, "family", None) == "five-axis":
+        return FiveAxisRecorder(core)
+    return AxisRecorder(core)
 
 
 def _bad_action(core) -> ValueError:

@@ -342,27 +342,9 @@ def axis_step(Z, zr, stuck, u, t0, T, n_sub, mat_T, mat_h, cont, nl, p, i, S, s,
     # constant 0 would be typed as a literal and give it a second one)
     level = 0 if n_use == n_sub else n_use - 1
     return _axis_step_slow(
-        Z,
-        zr,
-        stuck,
-        u,
-        t0,
-        T,
-        n_use,
-        level,
-        cap0,
-        mat_T,
-        mat_h,
-        cont,
-        nl,
-        p,
-        i,
-        S,
-        s,
-        w_extra,
-        f_a,
-        f_b,
-    )
+        Z, zr, stuck, u, t0, T, n_use, level, cap0, mat_T, mat_h, cont, nl, p, i, S, s,
+        w_extra, f_a, f_b,
+    )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -544,6 +526,26 @@ def _slide_fine(Z, zr, u, t, h, mat_h, ph, cont, nl, p, i, S, s, w_extra, ns, ec
     return 0.0, True
 
 
+@njit(cache=True, inline="always")
+def _chunk_substeps(level, j, target, suspect, hi, n_sub, limit):
+    """Substeps of the next chunk of :func:`_axis_step_slow` from substep j: one off the fine
+    grid (level > 0); on it, up to the predicted event (``target``), half-way to a suspected
+    one (bisection up to ``hi``), else the rest of the period — at most ``limit`` (stuck: the
+    largest chunk; sliding: as long as the first-order hold allows), at least 1."""
+    c = 1
+    if level == 0:
+        if target > j:
+            c = target - j
+        elif suspect:
+            c = (hi - j) // 2
+        else:
+            c = n_sub - j
+        c = min(c, limit)
+        if c < 1:
+            c = 1
+    return c
+
+
 @njit(cache=True, error_model="numpy")
 def _axis_step_slow(
     Z,
@@ -598,27 +600,9 @@ def _axis_step_slow(
         suspect = False  # sent here by the first-order hold's deviation, not by an event
     if stuck != 0.0:
         alpha = _hold_whole_period(
-            Z,
-            zr,
-            u,
-            t0,
-            T,
-            mat_T,
-            mat_h,
-            p0 + 1,
-            cont,
-            nl,
-            p,
-            i,
-            S,
-            s,
-            w_extra,
-            fs,
-            ns,
-            ec,
-            f_a0,
-            f_b0,
-        )
+            Z, zr, u, t0, T, mat_T, mat_h, p0 + 1, cont, nl, p, i, S, s, w_extra, fs, ns, ec,
+            f_a0, f_b0,
+        )  # fmt: skip
         if alpha < 0.0:
             return 1.0
         if level == 0:
@@ -630,45 +614,17 @@ def _axis_step_slow(
             suspect, hi = False, n_sub
         if stuck == 0.0 and Z[zr, 1] == 0.0 and fs > 0.0:
             stuck = 1.0
-        c = 1
-        if level == 0:
-            # up to the predicted event; half-way to a suspected one (bisection); else the
-            # rest of the period; sliding, no longer than the first-order hold allows
-            if target > j:
-                c = target - j
-            elif suspect:
-                c = (hi - j) // 2
-            else:
-                c = n_sub - j
-            c = min(c, cmax if stuck != 0.0 else cap)
-            if c < 1:
-                c = 1
+        c = _chunk_substeps(level, j, target, suspect, hi, n_sub, cmax if stuck != 0.0 else cap)
         pc = ph if c == 1 else p0 + CHUNK_LEVEL0 + c - 2
         if stuck != 0.0:
             wnf = -(external_force_near(Z[zr, 0], t, nl, p, i, ec) - w_extra)
             f_nf = _nonfriction_force(Z, zr, u, wnf, cont, p, i, ns)
             if abs(f_nf) <= fs:
-                if _hold(
-                    Z,
-                    zr,
-                    u,
-                    wnf,
-                    f_nf,
-                    t + c * h,
-                    c,
-                    mat_h,
-                    pc,
-                    cont,
-                    nl,
-                    p,
-                    i,
-                    S,
-                    s,
-                    w_extra,
-                    fs,
-                    ns,
-                    ec,
-                ):
+                held = _hold(
+                    Z, zr, u, wnf, f_nf, t + c * h, c, mat_h, pc, cont, nl, p, i, S, s, w_extra,
+                    fs, ns, ec,
+                )  # fmt: skip
+                if held:
                     j += c
                 else:
                     suspect, hi, target = True, j + c, -1
@@ -700,6 +656,23 @@ def _axis_step_slow(
             j += 1
             cap = min(cmax, 2 * cap)
     return stuck
+
+
+@njit(cache=True, inline="always")
+def delayed_saturated(delay, u_pending, command, b, i, limit):
+    """The command of axis i applied over this period: with the computation ``delay`` the
+    previous one (``u_pending``, which then takes this one), else this one; clipped to ±limit.
+    """
+    if delay:
+        u = u_pending[b, i]
+        u_pending[b, i] = command[b, i]
+    else:
+        u = command[b, i]
+    if u > limit:
+        u = limit
+    elif u < -limit:
+        u = -limit
+    return u
 
 
 @njit(cache=True)
@@ -736,16 +709,7 @@ def plant_step_batch(
     for b in range(n_env):
         p = pidx[b]
         for i in range(n_axes):
-            if delay:
-                u = u_pending[b, i]
-                u_pending[b, i] = action_force[b, i]
-            else:
-                u = action_force[b, i]
-            fmax = nl[p, i, NL_FMAX]
-            if u > fmax:
-                u = fmax
-            elif u < -fmax:
-                u = -fmax
+            u = delayed_saturated(delay, u_pending, action_force, b, i, nl[p, i, NL_FMAX])
             applied_out[b, i] = u
             for r in range(ns):
                 cur[0, r] = z[b, i, r]

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..kernel import delayed_saturated
 from .dynamics import (
     I_E4,
     I_G,
@@ -170,16 +171,7 @@ def five_axis_step_batch(
     for b in range(n_env):
         p = pidx[b]
         for j in range(5):
-            if delay:
-                uj = u_pending[b, j]
-                u_pending[b, j] = command[b, j]
-            else:
-                uj = command[b, j]
-            lim = jp[p, j, J_LIMIT]
-            if uj > lim:
-                uj = lim
-            elif uj < -lim:
-                uj = -lim
+            uj = delayed_saturated(delay, u_pending, command, b, j, jp[p, j, J_LIMIT])
             u[j] = uj
             applied_out[b, j] = uj
             y[j] = q[b, j]
