@@ -9,7 +9,7 @@ import sys
 import numpy as np
 
 from .. import DEFAULT_CASE  # one default case: the CLI's and gym.make's
-from .cli_common import add_target_args, print_metrics, target_kwargs
+from .cli_common import add_json_option, add_target_args, print_metrics, target_kwargs
 
 _SETUP_KEYS = (
     "case",
@@ -376,13 +376,50 @@ def build_parser() -> argparse.ArgumentParser:
         description="Multi-axis CNC feed-drive contouring: cases, runs, benchmarks (SI units).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
+    _add_cases_parser(sub)
+    _add_controllers_parser(sub)
+    _add_run_parser(sub)
+    _add_compare_parser(sub)
+    _add_ilc_parser(sub)
+    _add_stability_parser(sub)
+    _add_margins_parser(sub)
+    _add_bench_parser(sub)
+    _add_warm_parser(sub)
+    from .cli_rl import add_rl_commands  # train, evaluate, models (residual RL agents)
+    from .sweep import train_or_sweep  # train --sweep FILE: a sweep of trials
+
+    add_rl_commands(sub)
+    sub.choices["train"].set_defaults(func=train_or_sweep)
+    from .cli_benchmark import add_benchmark_command  # the whole benchmark and its report
+
+    add_benchmark_command(sub)
+    return parser
+
+
+def _add_metrics_option(p: argparse.ArgumentParser, total_unit: str) -> None:
+    # --metrics of run and compare; ``total_unit``: how the total contour error is given
+    p.add_argument(
+        "--metrics",
+        default=None,
+        help="extra metrics, comma-separated: total (Chen & Lee 2020's total contour error "
+        f"Σ|ε|, {total_unit})",
+    )
+
+
+def _add_cases_parser(sub) -> None:
     p = sub.add_parser("cases", help="list the named cases")
     p.add_argument("-v", "--verbose", action="store_true", help="full notes and published results")
     p.set_defaults(func=cmd_cases)
+
+
+def _add_controllers_parser(sub) -> None:
     p = sub.add_parser(
         "controllers", help="every controller with its parameters (for NAME:key=value variants)"
     )
     p.set_defaults(func=cmd_controllers)
+
+
+def _add_run_parser(sub) -> None:
     p = sub.add_parser("run", help="run one episode and print its metrics")
     add_target_args(p)
     p.add_argument(
@@ -391,15 +428,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="controller used as the policy: a name or a variant NAME:key=value[:key=value] "
         "(pd, ccc:wp=3e4; see `contour-env controllers`); default: zero command",
     )
-    p.add_argument("--json", help="write the metrics as JSON to this file")
-    p.add_argument(
-        "--metrics",
-        default=None,
-        help="extra metrics, comma-separated: total (Chen & Lee 2020's total contour error "
-        "Σ|ε|, µm)",
-    )
+    add_json_option(p, "the metrics")
+    _add_metrics_option(p, "µm")
     p.add_argument("--plot", help="write a plot (PNG) to this file")
     p.set_defaults(func=cmd_run)
+
+
+def _add_compare_parser(sub) -> None:
     p = sub.add_parser("compare", help="controllers side by side (Lee 2012 Tables 2, 3)")
     add_target_args(p)
     p.add_argument(
@@ -416,13 +451,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="model DIR (contour-env train --out) of the residual row; default: the shipped "
         "agent for the plant (contour-env models)",
     )
-    p.add_argument("--json", help="write the results as JSON to this file")
-    p.add_argument(
-        "--metrics",
-        default=None,
-        help="extra metrics, comma-separated: total (Chen & Lee 2020's total contour error "
-        "Σ|ε|, printed in mm, total_contour_error_um in the JSON)",
-    )
+    add_json_option(p, "the results")
+    _add_metrics_option(p, "printed in mm, total_contour_error_um in the JSON")
     p.add_argument(
         "--plot",
         help="write a PNG: the path with each controller's contour error magnified, contour "
@@ -442,6 +472,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="number of variations with --randomize (default 32)",
     )
     p.set_defaults(func=cmd_compare)
+
+
+def _add_ilc_parser(sub) -> None:
     p = sub.add_parser("ilc", help="repeated-batch trials with a learning controller")
     add_target_args(p)
     p.add_argument(
@@ -451,7 +484,7 @@ def build_parser() -> argparse.ArgumentParser:
         "vilcfd:dob=0:friction=false (see `contour-env controllers`; default ilc-contour)",
     )
     p.add_argument("--iterations", type=int, default=10, help="number of trials (default 10)")
-    p.add_argument("--json", help="write the per-iteration metrics as JSON to this file")
+    add_json_option(p, "the per-iteration metrics")
     p.add_argument("--plot", help="write the learning curve and first/last trial (PNG)")
     p.add_argument("--save", help="write the learning state (.npz) after the last trial")
     p.add_argument("--load", help="continue from a saved learning state (.npz)")
@@ -469,6 +502,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="plant disturbance phase: fixed (default, repeats) or random per trial",
     )
     p.set_defaults(func=cmd_ilc)
+
+
+def _add_stability_parser(sub) -> None:
     p = sub.add_parser(
         "stability", help="Jee 2007: Jury range of the axial P gain and circle steady state"
     )
@@ -494,6 +530,13 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="simulate the plant with its realistic effects (default: ideal, as the paper)",
     )
+    _add_cross_coupling_options(p)
+    add_json_option(p, "the report")
+    p.set_defaults(func=cmd_stability)
+
+
+def _add_cross_coupling_options(p: argparse.ArgumentParser) -> None:
+    # stability's Jee cross-coupling analysis (contour_env.app.jee_chart)
     p.add_argument(
         "--cross-coupling",
         action="store_true",
@@ -515,8 +558,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="check the realistic recommended gains with agents.margins.loop_margins "
         "(implies --cross-coupling)",
     )
-    p.add_argument("--json", help="write the report as JSON to this file")
-    p.set_defaults(func=cmd_stability)
+
+
+def _add_margins_parser(sub) -> None:
     p = sub.add_parser(
         "margins",
         help="gain and phase margins of every loop a controller closes (realistic plant)",
@@ -539,7 +583,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.2,
         help="± fraction of the mass corners (default 0.2)",
     )
-    p.add_argument("--json", help="write the report as JSON to this file")
+    add_json_option(p, "the report")
     p.add_argument(
         "--check",
         action="store_true",
@@ -547,6 +591,9 @@ def build_parser() -> argparse.ArgumentParser:
         "2 dB / 10°)",
     )
     p.set_defaults(func=cmd_margins)
+
+
+def _add_bench_parser(sub) -> None:
     p = sub.add_parser("bench", help="steps/s of the single and the vectorised env")
     p.add_argument("--case", default=DEFAULT_CASE, help=f"case (default {DEFAULT_CASE})")
     p.add_argument(
@@ -576,6 +623,9 @@ def build_parser() -> argparse.ArgumentParser:
         "docs/bench_reference.json)",
     )
     p.set_defaults(func=cmd_bench)
+
+
+def _add_warm_parser(sub) -> None:
     p = sub.add_parser(
         "warm",
         help="compile the numba kernels once, in parallel (minutes on a fresh install; later "
@@ -583,15 +633,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--workers", type=int, default=2, help="processes compiling at once (default 2)")
     p.set_defaults(func=cmd_warm)
-    from .cli_rl import add_rl_commands  # train, evaluate, models (residual RL agents)
-    from .sweep import train_or_sweep  # train --sweep FILE: a sweep of trials
-
-    add_rl_commands(sub)
-    sub.choices["train"].set_defaults(func=train_or_sweep)
-    from .cli_benchmark import add_benchmark_command  # the whole benchmark and its report
-
-    add_benchmark_command(sub)
-    return parser
 
 
 # options that name an output file or folder: checked before the command runs (a `train` of

@@ -1,5 +1,6 @@
 """What the ``contour-env`` commands share: the target options (``--case`` or ``--plant`` with
-``--gcode``), their keyword arguments for ``gym.make``, and the metrics printout."""
+``--gcode``), their keyword arguments for ``gym.make``, the ``--json`` option and the metrics
+printout."""
 
 from __future__ import annotations
 
@@ -45,6 +46,11 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
         default=None,
         help="the machine's rapid rate for G00 moves, m/s (default: the program's highest F)",
     )
+
+
+def add_json_option(p: argparse.ArgumentParser, what: str) -> None:
+    """``--json FILE``: write ``what`` (e.g. "the metrics") as JSON to this file."""
+    p.add_argument("--json", help=f"write {what} as JSON to this file")
 
 
 def gcode_file(value: str) -> str:

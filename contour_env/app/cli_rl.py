@@ -9,7 +9,13 @@ from __future__ import annotations
 
 import argparse
 
-from .cli_common import add_target_args, gcode_file, print_metrics, target_kwargs
+from .cli_common import (
+    add_json_option,
+    add_target_args,
+    gcode_file,
+    print_metrics,
+    target_kwargs,
+)
 
 # agents.rl.config.ALGOS (not imported here: the CLI starts without the RL stack); the sbx-*
 # algorithms are the JAX implementations, the optional extra pip install -e ".[jax]"
@@ -22,6 +28,36 @@ PRESET_NAMES = ("sac-4", "ppo-256")
 # for TrainConfig's own defaults (one env, one gradient step per transition)
 DEFAULT_PRESET = "sac-4"
 DEFAULT_TIMESTEPS = 20_000
+
+
+# the residual law's options of contour-env train (the dest: add_argument's keywords), all
+# default None: TrainConfig's defaults unless given
+RESIDUAL_LAW_OPTIONS = {
+    "residual_frame": dict(
+        choices=("path", "axes"),
+        help="the frame the agent acts in: the path's tangent/normal/binormal (path, default) "
+        "or the machine axes (axes)",
+    ),
+    "gate": dict(
+        action=argparse.BooleanOptionalAction,
+        help="a learned gate g in [0, 1] on the residual, starting closed (default on: the "
+        "README's ablation)",
+    ),
+    "observe_axes": dict(
+        action=argparse.BooleanOptionalAction,
+        help="give the agent each axis' reference velocity and acceleration (default on)",
+    ),
+    "reward_scale": dict(
+        choices=("base", "fixed"),
+        help="the reward's error scale per part: the base's RMS contour error on it (base, "
+        "default: every part weighs the same) or the env's 10 um (fixed)",
+    ),
+    "fade_at_rest": dict(
+        action=argparse.BooleanOptionalAction,
+        help="no residual while the reference stands still, faded in over the first 5 %% of "
+        "the feed (default on)",
+    ),
+}
 
 
 def _floats(text: str, name: str, n: int | None = None) -> tuple:
@@ -96,7 +132,7 @@ def config_from_args(args):
     if args.learning_rate_final is not None:
         kw["learning_rate_final"] = args.learning_rate_final
     # the residual law's options: TrainConfig's defaults unless given
-    for key in ("residual_frame", "gate", "observe_axes", "fade_at_rest", "reward_scale"):
+    for key in RESIDUAL_LAW_OPTIONS:
         value = getattr(args, key, None)
         if value is not None:
             kw[key] = value
@@ -249,6 +285,28 @@ def cmd_models(args) -> int:
 def add_rl_commands(sub) -> None:
     """Register ``train``, ``evaluate`` and ``models`` on the main parser's subparsers."""
     p = sub.add_parser("train", help="train a residual RL agent on top of a classical controller")
+    _add_task_options(p)
+    _add_run_options(p)
+    _add_residual_options(p)
+    _add_variety_options(p)
+    _add_learning_options(p)
+    _add_monitoring_options(p)
+    _add_sweep_options(p)
+    p.set_defaults(func=train_entry)
+
+    p = sub.add_parser("evaluate", help="score a trained residual agent against its base")
+    add_target_args(p)
+    p.add_argument("--model", required=True, help="trained model DIR (from `contour-env train`)")
+    add_json_option(p, "the metrics")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("models", help="list the shipped residual agents")
+    p.add_argument("--dir", default=None, help="list the model DIRs in this folder instead")
+    p.set_defaults(func=cmd_models)
+
+
+def _add_task_options(p: argparse.ArgumentParser) -> None:
+    # train: what to train on, and the controller the residual is added to
     p.add_argument("--case", help="training case (see `contour-env cases`)")
     p.add_argument("--cases", help="comma-separated training cases (one plant)")
     p.add_argument("--plant", help="plant, with --gcode training programs")
@@ -256,6 +314,10 @@ def add_rl_commands(sub) -> None:
         "--gcode", action="append", help="G-code training program (repeatable), with --plant"
     )
     p.add_argument("--base", default="pd", help="base controller (default pd)")
+
+
+def _add_run_options(p: argparse.ArgumentParser) -> None:
+    # train: the algorithm, its budget and envs, the output folder
     p.add_argument(
         "--algo",
         choices=ALGOS,
@@ -316,6 +378,10 @@ def add_rl_commands(sub) -> None:
         default=None,
         help="SAC/TD3: gradient steps per update (default 1; -1: one per transition collected)",
     )
+
+
+def _add_residual_options(p: argparse.ArgumentParser) -> None:
+    # train: the residual agent, what it sees and how it acts (RESIDUAL_LAW_OPTIONS last)
     p.add_argument(
         "--scale",
         type=float,
@@ -352,40 +418,12 @@ def add_rl_commands(sub) -> None:
         default="path",
         help="axes that take a residual: those the path uses (path, default) or all",
     )
-    p.add_argument(
-        "--residual-frame",
-        choices=("path", "axes"),
-        default=None,
-        help="the frame the agent acts in: the path's tangent/normal/binormal (path, default) "
-        "or the machine axes (axes)",
-    )
-    p.add_argument(
-        "--gate",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="a learned gate g in [0, 1] on the residual, starting closed (default on: the "
-        "README's ablation)",
-    )
-    p.add_argument(
-        "--observe-axes",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="give the agent each axis' reference velocity and acceleration (default on)",
-    )
-    p.add_argument(
-        "--reward-scale",
-        choices=("base", "fixed"),
-        default=None,
-        help="the reward's error scale per part: the base's RMS contour error on it (base, "
-        "default: every part weighs the same) or the env's 10 um (fixed)",
-    )
-    p.add_argument(
-        "--fade-at-rest",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="no residual while the reference stands still, faded in over the first 5 %% of "
-        "the feed (default on)",
-    )
+    for dest, keywords in RESIDUAL_LAW_OPTIONS.items():
+        p.add_argument("--" + dest.replace("_", "-"), default=None, **keywords)
+
+
+def _add_variety_options(p: argparse.ArgumentParser) -> None:
+    # train: the variety of the training episodes and the validation set
     p.add_argument(
         "--randomize-plant",
         type=float,
@@ -424,6 +462,10 @@ def add_rl_commands(sub) -> None:
     p.add_argument(
         "--circle-radius", help="random circle radius range MIN,MAX in m (default 0.005,0.05)"
     )
+
+
+def _add_learning_options(p: argparse.ArgumentParser) -> None:
+    # train: the networks, the learning rate and the rule that keeps a checkpoint
     p.add_argument("--net-arch", help="hidden layer sizes, e.g. 64,64 (default)")
     p.add_argument(
         "--keep-min-gain",
@@ -442,6 +484,10 @@ def add_rl_commands(sub) -> None:
         help="anneal the learning rate geometrically to LR over the run (over --time-budget "
         "when given, else over --timesteps); default: constant",
     )
+
+
+def _add_monitoring_options(p: argparse.ArgumentParser) -> None:
+    # train: evaluations, checkpoints, threads and the progress bar
     p.add_argument("--eval-freq", type=int, default=None, help="timesteps between evaluations")
     p.add_argument(
         "--eval-every-s",
@@ -455,6 +501,10 @@ def add_rl_commands(sub) -> None:
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _add_sweep_options(p: argparse.ArgumentParser) -> None:
+    # train --sweep FILE (contour_env.app.sweep), with --ray its trials on Ray Tune
     p.add_argument(
         "--sweep",
         metavar="FILE",
@@ -470,17 +520,6 @@ def add_rl_commands(sub) -> None:
         'instance) or a cluster ADDRESS; needs pip install -e ".[ray]" (default: one after '
         "another in this process)",
     )
-    p.set_defaults(func=train_entry)
-
-    p = sub.add_parser("evaluate", help="score a trained residual agent against its base")
-    add_target_args(p)
-    p.add_argument("--model", required=True, help="trained model DIR (from `contour-env train`)")
-    p.add_argument("--json", help="write the metrics as JSON to this file")
-    p.set_defaults(func=cmd_evaluate)
-
-    p = sub.add_parser("models", help="list the shipped residual agents")
-    p.add_argument("--dir", default=None, help="list the model DIRs in this folder instead")
-    p.set_defaults(func=cmd_models)
 
 
 def train_entry(args: argparse.Namespace) -> int:

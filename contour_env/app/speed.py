@@ -61,30 +61,38 @@ SMALL_ACTION = 0.01
 def _time_single(env, actions: np.ndarray, min_seconds: float) -> float:
     # whole passes over ``actions`` (an episode for contour_env) until min_seconds have passed
     env.reset(seed=0)
-    n_done = 0
-    t0 = time.perf_counter()
-    while True:
+
+    def one_pass():
         for a in actions:
             _, _, term, trunc, _ = env.step(a)
             if term or trunc:
                 env.reset()
-        n_done += len(actions)
-        elapsed = time.perf_counter() - t0
-        if elapsed >= min_seconds:
-            return n_done / elapsed
+
+    n_done, elapsed = _timed_passes(one_pass, len(actions), min_seconds)
+    return n_done / elapsed
 
 
 def _time_vector(venv, actions: np.ndarray, min_seconds: float) -> float:
     venv.reset(seed=0)
+
+    def one_pass():
+        for a in actions:
+            venv.step(a)
+
+    n_done, elapsed = _timed_passes(one_pass, len(actions), min_seconds)
+    return n_done * venv.num_envs / elapsed
+
+
+def _timed_passes(one_pass, steps_per_pass: int, min_seconds: float) -> tuple[int, float]:
+    # ``one_pass()`` again and again until min_seconds have passed: (steps done, seconds taken)
     n_done = 0
     t0 = time.perf_counter()
     while True:
-        for a in actions:
-            venv.step(a)
-        n_done += len(actions)
+        one_pass()
+        n_done += steps_per_pass
         elapsed = time.perf_counter() - t0
         if elapsed >= min_seconds:
-            return n_done * venv.num_envs / elapsed
+            return n_done, elapsed
 
 
 def _alternate(ours, yardstick, repeats: int) -> tuple[list[float], list[float]]:
@@ -241,6 +249,42 @@ def run_bench(
     """
     import contour_env  # noqa: F401  (registers the env)
 
+    seconds, repeats, sizes = _settings(quick, seconds, repeats, sizes)
+    window = seconds / repeats
+    rng = np.random.default_rng(0)
+    out = _bench_header(case, seconds, repeats, quick)
+    env = gym.make(ENV_ID, case=case)
+    actions = tracking_actions(case, env.unwrapped.core.n_steps - 1)
+    out.update(_single_rows(env, actions, rng, window, repeats))
+    if progress:
+        progress(
+            f"single env: {out['single_env_steps_per_s']:,.0f} steps/s "
+            f"(CartPole {out['cartpole_single_steps_per_s']:,.0f}; "
+            f"ratio {out['single_ratio_to_cartpole']:.2f})"
+        )
+    if extra_envs is None:
+        extra_envs = QUICK_EXTRA_ENVS if quick else EXTRA_ENVS
+    _vector_figures(
+        out, case, actions, rng, window, repeats, list(sizes), int(extra_envs), progress
+    )
+    if controllers:
+        out["controllers"], out["controllers_note"] = _controller_rows(
+            quick, out["single_env_steps_per_s"]
+        )
+    else:
+        out["controllers"], out["controllers_note"] = (
+            [],
+            "controller-in-the-loop rows not asked for",
+        )
+    # the commit measured (taken last: ``git`` in a child process, nothing the timing needs)
+    out["code"] = _code_version()
+    if progress:
+        _report_controllers(out, progress)
+    return out
+
+
+def _settings(quick: bool, seconds, repeats, sizes) -> tuple:
+    # (seconds, repeats, sizes): the defaults (quick's with ``quick``) where None, checked
     if seconds is None:
         seconds = QUICK_SECONDS if quick else DEFAULT_SECONDS
     if repeats is None:
@@ -252,9 +296,12 @@ def run_bench(
         raise ValueError(f"repeats: must be an integer >= 1, got {repeats!r}")
     if not seconds > 0:
         raise ValueError(f"seconds: must be > 0, got {seconds!r}")
-    window = seconds / repeats
-    rng = np.random.default_rng(0)
-    out: dict = {
+    return seconds, repeats, sizes
+
+
+def _bench_header(case: str, seconds: float, repeats: int, quick: bool) -> dict:
+    # what was measured, how, and on what machine (the report's first keys)
+    return {
         "case": case,
         "action": "recorded commands of a feedforward + PD tracking servo, replayed",
         "statistic": f"median of {repeats} windows alternating with CartPole-v1's",
@@ -269,8 +316,10 @@ def run_bench(
         # machine is not a reference (scripts/check_speed_regression.py --update refuses it)
         "load_average_at_start": _load_average(),
     }
-    env = gym.make(ENV_ID, case=case)
-    actions = tracking_actions(case, env.unwrapped.core.n_steps - 1)
+
+
+def _single_rows(env, actions, rng, window, repeats) -> dict:
+    # the single-env figure, its windows alternating with CartPole's random actions
     _time_single(env, actions[:200], 0.0)  # compile / warm up
     cp = gym.make("CartPole-v1")
     cp_actions = rng.integers(0, 2, 2000)
@@ -280,23 +329,20 @@ def run_bench(
         repeats,
     )
     ratios = pair_ratios(ours, theirs)
-    out["single_env_steps_per_s"] = statistics.median(ours)
-    out["cartpole_single_steps_per_s"] = statistics.median(theirs)
-    out["single_ratio_to_cartpole"] = statistics.median(ratios)
-    out["single_env_steps_per_s_runs"] = ours
-    out["cartpole_single_steps_per_s_runs"] = theirs
-    out["single_ratio_to_cartpole_runs"] = ratios
-    if progress:
-        progress(
-            f"single env: {out['single_env_steps_per_s']:,.0f} steps/s "
-            f"(CartPole {out['cartpole_single_steps_per_s']:,.0f}; "
-            f"ratio {out['single_ratio_to_cartpole']:.2f})"
-        )
+    return {
+        "single_env_steps_per_s": statistics.median(ours),
+        "cartpole_single_steps_per_s": statistics.median(theirs),
+        "single_ratio_to_cartpole": statistics.median(ratios),
+        "single_env_steps_per_s_runs": ours,
+        "cartpole_single_steps_per_s_runs": theirs,
+        "single_ratio_to_cartpole_runs": ratios,
+    }
+
+
+def _vector_figures(out, case, actions, rng, window, repeats, sizes, extra_n, progress) -> None:
+    # out["vector"]: a row per size of ``sizes``; at ``extra_n`` envs (< 1: none) also
+    # out["exploration"] and out["contended"]
     out["vector"] = []
-    if extra_envs is None:
-        extra_envs = QUICK_EXTRA_ENVS if quick else EXTRA_ENVS
-    extra_n = int(extra_envs)
-    sizes = list(sizes)
     for n in sizes + ([] if extra_n in sizes or extra_n < 1 else [extra_n]):
         venv, cvenv, measure, track = _vector_rows(case, n, actions, rng, window, repeats)
         try:
@@ -307,7 +353,6 @@ def run_bench(
                     progress(_vector_line(f"vector {n:5d} envs", row))
             if n != extra_n:
                 continue
-            quiet = row
             out["exploration"] = _exploration(venv, track, len(actions), rng, window, repeats)
             if progress:
                 for r in out["exploration"]:
@@ -315,47 +360,42 @@ def run_bench(
                         f"{r['label']} {n} envs: {r['env_steps_per_s']:,.0f} env-steps/s "
                         f"(ratio to tracking {r['ratio_to_tracking']:.2f})"
                     )
-            busy = start_busy_process()
-            try:
-                time.sleep(0.1)
-                row = measure()
-            finally:
-                stop_busy_process(busy)
-            row["ratio_to_quiet"] = row["env_steps_per_s"] / quiet["env_steps_per_s"]
-            row["cartpole_ratio_to_quiet"] = (
-                row["cartpole_env_steps_per_s"] / quiet["cartpole_env_steps_per_s"]
-            )
-            row["contention"] = "a second process spinning on the CPU"
-            out["contended"] = row
+            out["contended"] = _contended(measure, quiet=row)
             if progress:
                 progress(
-                    _vector_line(f"contended {n} envs", row)
-                    + f"; ratio to quiet {row['ratio_to_quiet']:.2f}"
+                    _vector_line(f"contended {n} envs", out["contended"])
+                    + f"; ratio to quiet {out['contended']['ratio_to_quiet']:.2f}"
                 )
         finally:
             venv.close()
             cvenv.close()
-    if controllers:
-        out["controllers"], out["controllers_note"] = _controller_rows(
-            quick, out["single_env_steps_per_s"]
-        )
+
+
+def _contended(measure, quiet: dict) -> dict:
+    # ``measure()`` again while a second process spins on the CPU, with its ratio to ``quiet``
+    busy = start_busy_process()
+    try:
+        time.sleep(0.1)
+        row = measure()
+    finally:
+        stop_busy_process(busy)
+    row["ratio_to_quiet"] = row["env_steps_per_s"] / quiet["env_steps_per_s"]
+    row["cartpole_ratio_to_quiet"] = (
+        row["cartpole_env_steps_per_s"] / quiet["cartpole_env_steps_per_s"]
+    )
+    row["contention"] = "a second process spinning on the CPU"
+    return row
+
+
+def _report_controllers(out: dict, progress) -> None:
+    if out["controllers"]:
+        for r in out["controllers"]:
+            progress(
+                f"{r['name']}: {r['steps_per_s']:,.0f} "
+                f"(ratio to the env's single-env rate {r['ratio_to_env']:.2f})"
+            )
     else:
-        out["controllers"], out["controllers_note"] = (
-            [],
-            "controller-in-the-loop rows not asked for",
-        )
-    # the commit measured (taken last: ``git`` in a child process, nothing the timing needs)
-    out["code"] = _code_version()
-    if progress:
-        if out["controllers"]:
-            for r in out["controllers"]:
-                progress(
-                    f"{r['name']}: {r['steps_per_s']:,.0f} "
-                    f"(ratio to the env's single-env rate {r['ratio_to_env']:.2f})"
-                )
-        else:
-            progress(out["controllers_note"])
-    return out
+        progress(out["controllers_note"])
 
 
 def _vector_line(label: str, row: dict) -> str:
