@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from .checks import finite_number as _number
 from .geometry import PathGeometry
 from .segments import Arc, Cubic, Line, _vec3
 
@@ -24,18 +25,6 @@ def _points(name: str, points) -> np.ndarray:
     if pts.shape[1] == 2:
         pts = np.column_stack([pts, np.zeros(len(pts))])
     return pts
-
-
-def _number(name: str, value) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{name}: expected a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    return v
 
 
 def _positive(name: str, value, unit: str) -> float:

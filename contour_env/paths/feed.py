@@ -12,19 +12,16 @@ from typing import NamedTuple
 import numpy as np
 
 from . import planner
+from .checks import finite_number
 from .geometry import PathGeometry
 from .planner import Block
 
 
 def _positive(name: str, value, unit: str) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{name}: must be a finite number > 0 {unit}, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be a finite number > 0 {unit}, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name}: must be a finite number > 0 {unit}, got {value!r}")
+    need = f"must be a finite number > 0 {unit}"
+    v = finite_number(name, value, expected=need, bad=need)
+    if not v > 0:
+        raise ValueError(f"{name}: {need}, got {value!r}")
     return v
 
 

@@ -172,6 +172,8 @@ from .gcode_parser import (
     format_seconds,
     is_planar_xy,
 )
+from .geometry import PathGeometry
+from .segments import Arc, Line
 
 
 @dataclass(frozen=True, eq=False)
@@ -263,149 +265,171 @@ class GcodeProgram:
         Returns ``self`` when the path is already 2-D. ``strict=True`` raises ``ValueError``
         naming every line with Z motion instead of converting it.
         """
-        from contour_env.paths.geometry import PathGeometry
-        from contour_env.paths.segments import Arc, Line
-
         if self.path.dim == 2:
             return self
         where = "" if self.source == "<string>" else f" [{self.source}]"
-        z_lines = sorted(
-            {
-                int(ln)
-                for s, ln in zip(self.segments, self.segment_lines, strict=True)
-                if _has_z_motion(s)
-            }
-        )
-        if strict and z_lines:
-            shown = ", ".join(map(str, z_lines[:MAX_LISTED_ERRORS]))
-            more = len(z_lines) - MAX_LISTED_ERRORS
-            raise ValueError(
-                f"G-code program has Z motion on {len(z_lines)} line"
-                f"{'s' * (len(z_lines) != 1)} ({shown}{f' and {more} more' if more > 0 else ''})"
-                f"; a 2-axis (XY) machine cannot follow it (strict=True){where}"
-            )
-        segs, feeds, rapid, lines, blend, dwell = [], [], [], [], [], []
-        notes: list[GcodeNote] = []
-        start = [float(self.start_dwell_s)]  # the pause before the first XY segment
-
-        def wait(t):
-            if segs:
-                dwell[-1] += t
-                blend[-1] = 0.0
-            else:
-                start[0] += t
-
-        def add(seg, feed, k, b):
-            segs.append(seg)
-            feeds.append(feed)
-            rapid.append(bool(self.segment_is_rapid[k]))
-            lines.append(int(self.segment_lines[k]))
-            blend.append(b)
-            dwell.append(0.0)
-
-        def pause(t, k, word):
-            ln = int(self.segment_lines[k])
-            where = "" if segs else " before the first XY move"
-            wait(t)
-            notes.append(
-                GcodeNote(
-                    ln,
-                    word,
-                    f"Z motion taken by an unsimulated axis: pause {format_seconds(t)}{where}",
-                )
-            )
-
+        if strict:
+            _refuse_z_motion(self, where)
+        out = _PlanarXY(self)
         for k, s in enumerate(self.segments):
-            f = float(self.segment_feeds_m_s[k])
-            b = float(self.segment_blend_m[k])
-            ln = int(self.segment_lines[k])
             if isinstance(s, Line):
-                p0, p1 = s.start, s.end
-                dxy = math.hypot(p1[0] - p0[0], p1[1] - p0[1])
-                word = "G0" if self.segment_is_rapid[k] else "G1"
-                if dxy <= ZERO_LENGTH_TOL_M:
-                    pause(s.length / f, k, word)
-                else:
-                    ratio = dxy / s.length
-                    add(Line((p0[0], p0[1], 0.0), (p1[0], p1[1], 0.0)), f * ratio, k, b)
-                    if p1[2] != p0[2]:
-                        notes.append(
-                            GcodeNote(
-                                ln,
-                                word,
-                                "Z motion taken by an unsimulated axis: "
-                                f"XY feed x{ratio:.4g} (same duration)",
-                            )
-                        )
+                out.line(k, s)
             elif s.u[2] == 0.0 and s.v[2] == 0.0:  # G17 arc / helix about +-Z
-                c = (s.center[0], s.center[1], 0.0)
-                helix = s.pitch != 0.0
-                ratio = s.radius / math.hypot(s.radius, s.pitch)
-                add(Arc(c, s.u, s.v, s.radius, s.theta0, s.sweep, 0.0), f * ratio, k, b)
-                if helix:
-                    notes.append(
-                        GcodeNote(
-                            ln,
-                            "G3" if s.sweep > 0 else "G2",
-                            "Z motion taken by an unsimulated axis: helix kept as its XY arc, "
-                            f"feed x{ratio:.4g} (same duration)",
-                        )
-                    )
+                out.xy_arc(k, s)
             else:  # G18 / G19 arc or helix
-                pieces, exact = _project_arc_xy(s)
-                dur_per_rad = math.hypot(s.radius, s.pitch) / f
-                w = s.w
-                plane = "G18" if abs(w[1]) > 0.5 else "G19"
-                word = "G3" if s.sweep > 0 else "G2"
-                n_kept = 0
-                for q0, q1, dth, stop in pieces:
-                    t = abs(dth) * dur_per_rad
-                    L = math.hypot(q1[0] - q0[0], q1[1] - q0[1])
-                    if L <= ZERO_LENGTH_TOL_M:
-                        wait(t)
-                        continue
-                    # chord junctions inside one block blend whatever the mode (G61 included)
-                    inner = max(b, PLANAR_CHORD_TOL_M)
-                    q0z, q1z = (q0[0], q0[1], 0.0), (q1[0], q1[1], 0.0)
-                    add(Line(q0z, q1z), L / t, k, 0.0 if stop else inner)
-                    n_kept += 1
-                if n_kept and lines[-1] == ln and dwell[-1] == 0.0:
-                    blend[-1] = b  # the block's own end: the mode in force
-                kind = (
-                    (
-                        f"{plane} arc projected onto XY as {n_kept} line"
-                        f"{'s' * (n_kept != 1)} (exact, stops where it reverses)"
-                    )
-                    if exact
-                    else (
-                        f"{plane} helix projected onto XY as a polyline of {n_kept} chords "
-                        f"within {PLANAR_CHORD_TOL_M * 1e6:g} um"
-                    )
-                )
-                notes.append(GcodeNote(ln, word, f"Z motion taken by an unsimulated axis: {kind}"))
+                out.tilted_arc(k, s)
             if self.segment_dwell_s[k] > 0:
-                wait(float(self.segment_dwell_s[k]))
-        if not segs:
+                out.wait(float(self.segment_dwell_s[k]))
+        if not out.segs:
             raise ValueError(f"G-code program has no XY motion; planar_xy needs some{where}")
-        blend[-1] = 0.0
-        feeds_arr = np.asarray(feeds, dtype=float)
-        rapid_arr = np.asarray(rapid, dtype=bool)
+        return out.program()
+
+
+def _refuse_z_motion(program: GcodeProgram, where: str) -> None:
+    """`GcodeProgram.planar_xy` with strict=True: the error naming every line with Z motion."""
+    z_lines = sorted(
+        {
+            int(ln)
+            for s, ln in zip(program.segments, program.segment_lines, strict=True)
+            if _has_z_motion(s)
+        }
+    )
+    if z_lines:
+        shown = ", ".join(map(str, z_lines[:MAX_LISTED_ERRORS]))
+        more = len(z_lines) - MAX_LISTED_ERRORS
+        raise ValueError(
+            f"G-code program has Z motion on {len(z_lines)} line"
+            f"{'s' * (len(z_lines) != 1)} ({shown}{f' and {more} more' if more > 0 else ''})"
+            f"; a 2-axis (XY) machine cannot follow it (strict=True){where}"
+        )
+
+
+class _PlanarXY:
+    """The XY program of `GcodeProgram.planar_xy`, built segment by segment of ``source``:
+    the per-segment lists of the new program, the pause before its first segment and the
+    notes saying what became of the Z motion."""
+
+    def __init__(self, source: GcodeProgram):
+        self.source = source
+        self.segs, self.feeds, self.rapid, self.lines, self.blend, self.dwell = (
+            [], [], [], [], [], []
+        )  # fmt: skip
+        self.notes: list[GcodeNote] = []
+        self.start_dwell = float(source.start_dwell_s)  # the pause before the first XY segment
+
+    def note(self, k: int, word: str, what: str) -> None:
+        ln = int(self.source.segment_lines[k])
+        self.notes.append(GcodeNote(ln, word, f"Z motion taken by an unsimulated axis: {what}"))
+
+    def wait(self, t: float) -> None:
+        if self.segs:
+            self.dwell[-1] += t
+            self.blend[-1] = 0.0
+        else:
+            self.start_dwell += t
+
+    def add(self, seg, feed: float, k: int, b: float) -> None:
+        self.segs.append(seg)
+        self.feeds.append(feed)
+        self.rapid.append(bool(self.source.segment_is_rapid[k]))
+        self.lines.append(int(self.source.segment_lines[k]))
+        self.blend.append(b)
+        self.dwell.append(0.0)
+
+    def pause(self, t: float, k: int, word: str) -> None:
+        where = "" if self.segs else " before the first XY move"
+        self.wait(t)
+        self.note(k, word, f"pause {format_seconds(t)}{where}")
+
+    def line(self, k: int, s) -> None:
+        """A line: its XY projection at the feed of the same duration, or a pause."""
+        f = float(self.source.segment_feeds_m_s[k])
+        b = float(self.source.segment_blend_m[k])
+        p0, p1 = s.start, s.end
+        dxy = math.hypot(p1[0] - p0[0], p1[1] - p0[1])
+        word = "G0" if self.source.segment_is_rapid[k] else "G1"
+        if dxy <= ZERO_LENGTH_TOL_M:
+            self.pause(s.length / f, k, word)
+            return
+        ratio = dxy / s.length
+        self.add(Line((p0[0], p0[1], 0.0), (p1[0], p1[1], 0.0)), f * ratio, k, b)
+        if p1[2] != p0[2]:
+            self.note(k, word, f"XY feed x{ratio:.4g} (same duration)")
+
+    def xy_arc(self, k: int, s) -> None:
+        """A G17 arc or helix about +-Z: its XY arc at the feed of the same duration."""
+        f = float(self.source.segment_feeds_m_s[k])
+        b = float(self.source.segment_blend_m[k])
+        c = (s.center[0], s.center[1], 0.0)
+        helix = s.pitch != 0.0
+        ratio = s.radius / math.hypot(s.radius, s.pitch)
+        self.add(Arc(c, s.u, s.v, s.radius, s.theta0, s.sweep, 0.0), f * ratio, k, b)
+        if helix:
+            self.note(
+                k,
+                "G3" if s.sweep > 0 else "G2",
+                f"helix kept as its XY arc, feed x{ratio:.4g} (same duration)",
+            )
+
+    def tilted_arc(self, k: int, s) -> None:
+        """A G18 / G19 arc or helix: its XY projection as lines, each piece in its own time."""
+        f = float(self.source.segment_feeds_m_s[k])
+        b = float(self.source.segment_blend_m[k])
+        ln = int(self.source.segment_lines[k])
+        pieces, exact = _project_arc_xy(s)
+        dur_per_rad = math.hypot(s.radius, s.pitch) / f
+        w = s.w
+        plane = "G18" if abs(w[1]) > 0.5 else "G19"
+        word = "G3" if s.sweep > 0 else "G2"
+        n_kept = 0
+        for q0, q1, dth, stop in pieces:
+            t = abs(dth) * dur_per_rad
+            L = math.hypot(q1[0] - q0[0], q1[1] - q0[1])
+            if L <= ZERO_LENGTH_TOL_M:
+                self.wait(t)
+                continue
+            # chord junctions inside one block blend whatever the mode (G61 included)
+            inner = max(b, PLANAR_CHORD_TOL_M)
+            q0z, q1z = (q0[0], q0[1], 0.0), (q1[0], q1[1], 0.0)
+            self.add(Line(q0z, q1z), L / t, k, 0.0 if stop else inner)
+            n_kept += 1
+        if n_kept and self.lines[-1] == ln and self.dwell[-1] == 0.0:
+            self.blend[-1] = b  # the block's own end: the mode in force
+        kind = (
+            (
+                f"{plane} arc projected onto XY as {n_kept} line"
+                f"{'s' * (n_kept != 1)} (exact, stops where it reverses)"
+            )
+            if exact
+            else (
+                f"{plane} helix projected onto XY as a polyline of {n_kept} chords "
+                f"within {PLANAR_CHORD_TOL_M * 1e6:g} um"
+            )
+        )
+        self.note(k, word, kind)
+
+    def program(self) -> GcodeProgram:
+        """The XY program (at least one segment added): its last segment ends in a stop."""
+        src = self.source
+        self.blend[-1] = 0.0
+        feeds_arr = np.asarray(self.feeds, dtype=float)
+        rapid_arr = np.asarray(self.rapid, dtype=bool)
         cutting = feeds_arr[~rapid_arr]
         feedrate = float(cutting.max()) if cutting.size else float(feeds_arr.max())
-        all_notes = sorted(list(self.notes) + notes, key=lambda n: n.line)
+        all_notes = sorted(list(src.notes) + self.notes, key=lambda n: n.line)
         return GcodeProgram(
-            segments=segs,
+            segments=self.segs,
             segment_feeds_m_s=feeds_arr,
-            path=PathGeometry.from_segments(segs, dim=2),
+            path=PathGeometry.from_segments(self.segs, dim=2),
             feedrate_m_s=feedrate,
-            units=self.units,
-            source=self.source,
+            units=src.units,
+            source=src.source,
             segment_is_rapid=rapid_arr,
-            segment_lines=np.asarray(lines, dtype=np.int64),
-            segment_blend_m=np.asarray(blend, dtype=float),
-            segment_dwell_s=np.asarray(dwell, dtype=float),
+            segment_lines=np.asarray(self.lines, dtype=np.int64),
+            segment_blend_m=np.asarray(self.blend, dtype=float),
+            segment_dwell_s=np.asarray(self.dwell, dtype=float),
             notes=all_notes,
-            start_dwell_s=start[0],
+            start_dwell_s=self.start_dwell,
         )
 
 
@@ -475,9 +499,6 @@ def parse_gcode(
     :class:`~contour_env.paths.gcode_five_axis.FiveAxisProgram`
     (:mod:`contour_env.paths.gcode_five_axis`).
     """
-    from contour_env.paths.geometry import PathGeometry
-    from contour_env.paths.segments import Arc, Line
-
     if rapid_feed_m_s is not None and not (math.isfinite(rapid_feed_m_s) and rapid_feed_m_s > 0):
         raise ValueError(f"rapid_feed_m_s must be finite and > 0, got {rapid_feed_m_s!r}")
     if five_axis is not None:

@@ -62,6 +62,7 @@ class FiveAxisProgram:
 
 class _FiveAxisParser(Parser):
     rotary_letters = "AC"
+    motion_codes = "G00 or G01"
 
     def __init__(self, source: str, geometry):
         super().__init__(source)
@@ -91,23 +92,11 @@ class _FiveAxisParser(Parser):
         )
 
     def move(self, lineno, values, motion_text, exact_here) -> None:
-        motion = self.motion
-        if motion is None:
-            first = next(values[a] for a in "XYZACIJKR" if a in values)
-            raise self.error(
-                lineno,
-                f"axis word {first.text!r} with no motion mode active (program G00 or G01 first)",
-            )
+        motion, label = self.active_motion(lineno, values, motion_text)
         if any(a in values for a in "IJKR"):
             w = next(values[a] for a in "IJKR" if a in values)
             raise self.error(lineno, f"arc word {w.text!r} on the five-axis plant (no arcs)")
-        label = motion_text if motion_text is not None else f"G{motion:02d} (modal)"
-        if motion != 0 and self.feed is None:
-            raise self.error(
-                lineno, f"feed move {label!r} before any feed rate (F word) was programmed"
-            )
-        if self.first_units is None:
-            self.first_units = self.units_name
+        self.begin_move(lineno, motion, label)
         start = list(self.pos) + list(self.rot)
         target = list(start)
         for k, a in enumerate("XYZAC"):

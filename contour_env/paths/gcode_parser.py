@@ -230,6 +230,8 @@ def format_seconds(t: float) -> str:
 class Parser:
     # rotary-axis letters read as axis words (the five-axis parser's A and C)
     rotary_letters = ""
+    # the motion codes it reads, for the message of an axis word with no motion mode
+    motion_codes = "G00, G01, G02 or G03"
 
     def __init__(self, source: str):
         self.source = source
@@ -275,6 +277,16 @@ class Parser:
             s = s[1:]
             if not s:
                 return None
+        self.check_syntax(code, s, shown, lineno)
+        words = self.read_words(s, shown, lineno)
+        gcodes, values = self.group_words(words, lineno)
+        self.check_word_context(words, gcodes, values, shown, lineno)
+        return words, gcodes, values, block_delete
+
+    def check_syntax(self, code: str, s: str, shown: str, lineno: int) -> None:
+        """Refuses what is not plain words: parameters, expressions, subroutines, macros,
+        exponent notation, a line not starting with a letter (``s``: ``code`` without
+        whitespace or block delete; ``shown``: the line for messages)."""
         up = s.upper()
         feats = []
         if "#" in s:
@@ -304,6 +316,10 @@ class Parser:
             raise self.error(
                 lineno, f"unexpected character {ch!r} (U+{ord(ch):04X}) in {written!r}"
             )
+
+    def read_words(self, s: str, shown: str, lineno: int) -> list[_Word]:
+        """The words of ``s`` with their numbers; refuses unknown or unsupported words (all
+        of them in one message) and numbers that do not parse."""
         words: list[_Word] = []
         unsupported: list[str] = []
         for tok in _TOKEN.finditer(s):
@@ -312,23 +328,7 @@ class Parser:
             if letter not in _LETTERS:
                 unsupported.append(f"{text!r} (unknown word)")
                 continue
-            if raw == "":
-                raise self.error(lineno, f"word {text!r} has no number")
-            if _NUMBER.fullmatch(raw) is None:
-                bad = [c for c in raw if not c.isascii()]
-                if bad:
-                    raise self.error(
-                        lineno,
-                        f"cannot parse the number in word {text!r}: non-ASCII character "
-                        f"{bad[0]!r} (U+{ord(bad[0]):04X}); numbers use the ASCII digits 0-9, "
-                        "'.', '+' and '-' only",
-                    )
-                raise self.error(lineno, f"cannot parse the number in word {text!r}")
-            value = float(raw)
-            if not math.isfinite(value):
-                raise self.error(
-                    lineno, f"cannot parse the number in word {short_text(text)!r} (not finite)"
-                )
+            value = self.word_number(text, raw, lineno)
             if letter == "G":
                 if value not in _G_GROUPS:
                     why = _G_UNSUPPORTED.get(value, "G code not implemented")
@@ -348,7 +348,32 @@ class Parser:
                 lineno,
                 f"unsupported {what} {', '.join(unsupported)}: not implemented, in {shown!r}",
             )
+        return words
 
+    def word_number(self, text: str, raw: str, lineno: int) -> float:
+        """The number ``raw`` of the word ``text``: ASCII digits, finite."""
+        if raw == "":
+            raise self.error(lineno, f"word {text!r} has no number")
+        if _NUMBER.fullmatch(raw) is None:
+            bad = [c for c in raw if not c.isascii()]
+            if bad:
+                raise self.error(
+                    lineno,
+                    f"cannot parse the number in word {text!r}: non-ASCII character "
+                    f"{bad[0]!r} (U+{ord(bad[0]):04X}); numbers use the ASCII digits 0-9, "
+                    "'.', '+' and '-' only",
+                )
+            raise self.error(lineno, f"cannot parse the number in word {text!r}")
+        value = float(raw)
+        if not math.isfinite(value):
+            raise self.error(
+                lineno, f"cannot parse the number in word {short_text(text)!r} (not finite)"
+            )
+        return value
+
+    def group_words(self, words: list[_Word], lineno: int) -> tuple[dict, dict]:
+        """(G codes by modal group: (value, text), the other words but M by letter); refuses
+        two codes of one group or two words of one letter."""
         gcodes: dict[str, tuple[float, str]] = {}
         values: dict[str, _Word] = {}
         for w in words:
@@ -368,6 +393,11 @@ class Parser:
                         f"{values[w.letter].text!r})",
                     )
                 values[w.letter] = w
+        return gcodes, values
+
+    def check_word_context(self, words, gcodes, values, shown: str, lineno: int) -> None:
+        """Refuses words that need a code on their line: G53 with axis words, P without G04
+        or G64, Q without G64, an O word with other words."""
         non_modal = gcodes.get("non-modal", (None, ""))
         if non_modal[0] == 53.0:
             axes = "XYZIJKR" + self.rotary_letters
@@ -398,7 +428,6 @@ class Parser:
                 f"program call; an O word is read only as a program number alone on its line) "
                 f"in {shown!r}",
             )
-        return words, gcodes, values, block_delete
 
     # ---------------------------------------------------------------- parsing
     def parse(self, text: str, start):
@@ -582,16 +611,32 @@ class Parser:
         self.move_blend[-1] = 0.0
         self.note(lineno, word, f"dwell {t:g} s{hint}")
 
-    def move(self, lineno, values, motion_text, exact_here) -> None:
+    def active_motion(self, lineno, values, motion_text) -> tuple[int, str]:
+        """(the motion mode in force, its label for messages: the code as written on the
+        line, or "Gnn (modal)"); refuses axis words with no motion mode active."""
         motion = self.motion
         if motion is None:
-            first = next(values[a] for a in "XYZIJKR" if a in values)
+            letters = "XYZ" + self.rotary_letters + "IJKR"
+            first = next(values[a] for a in letters if a in values)
             raise self.error(
                 lineno,
                 f"axis word {first.text!r} with no motion mode active "
-                "(program G00, G01, G02 or G03 first)",
+                f"(program {self.motion_codes} first)",
             )
         label = motion_text if motion_text is not None else f"G{motion:02d} (modal)"
+        return motion, label
+
+    def begin_move(self, lineno, motion, label) -> None:
+        """Refuses a feed move before any F word; the first move fixes the program's units."""
+        if motion != 0 and self.feed is None:
+            raise self.error(
+                lineno, f"feed move {label!r} before any feed rate (F word) was programmed"
+            )
+        if self.first_units is None:
+            self.first_units = self.units_name
+
+    def move(self, lineno, values, motion_text, exact_here) -> None:
+        motion, label = self.active_motion(lineno, values, motion_text)
         pos = self.pos
         unit = self.unit
         target = list(pos)
@@ -615,12 +660,7 @@ class Parser:
                     f"arc word {short_text(w.text)!r} is {w.value * unit:.3g} m; must be within "
                     f"+-{2 * MAX_COORDINATE_M:g} m",
                 )
-        if motion != 0 and self.feed is None:
-            raise self.error(
-                lineno, f"feed move {label!r} before any feed rate (F word) was programmed"
-            )
-        if self.first_units is None:
-            self.first_units = self.units_name
+        self.begin_move(lineno, motion, label)
         if motion in (0, 1):
             dx, dy, dz = target[0] - pos[0], target[1] - pos[1], target[2] - pos[2]
             if math.sqrt(dx * dx + dy * dy + dz * dz) <= ZERO_LENGTH_TOL_M:

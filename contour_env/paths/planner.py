@@ -155,37 +155,10 @@ def plan(
     ``blend_m`` None, for every junction; else the smaller feed of the two sides, and at a
     corner also `junction_speed`.
     """
-    n = path.n_segments
-    L_total = path.total_length
-    if n > 1:
-        theta = junction_angles(path)
-        corner = theta > corner_tol_rad
-        f_l, f_r = seg_feed[:-1], seg_feed[1:]
-        change = f_l != f_r
-        dw = dwell_s[:-1] if dwell_s is not None else np.zeros(n - 1)
-        cap = np.minimum(f_l, f_r)
-        if blend_m is None:
-            cap = np.where(corner | change, 0.0, cap)
-            is_j = corner | change | (dw > 0)
-        else:
-            delta = blend_m[:-1]
-            v_corner = junction_speed(theta, delta, a_max, j_max)
-            cap = np.where(corner, np.minimum(cap, v_corner), cap)
-            cap = np.where(delta == 0.0, 0.0, cap)
-            # a G64 corner that allows at least the (same) feed on both sides constrains
-            # nothing: not a junction, so that ramps and cruises run through it (a finely
-            # tessellated curve is one block)
-            transparent = corner & ~change & (delta > 0) & (v_corner >= f_l)
-            is_j = (corner & ~transparent) | change | (dw > 0)
-        cap = np.where(dw > 0, 0.0, cap)
-        jk = np.nonzero(is_j)[0]
-    else:
-        jk = np.zeros(0, dtype=np.int64)
-        cap = np.zeros(0)
-        dw = np.zeros(0)
+    jk, cap, dw = _junctions(path, seg_feed, a_max, j_max, corner_tol_rad, blend_m, dwell_s)
     m = jk.size + 1
     # a junction's arc length is the next segment's start (where segment_index puts it)
-    s_bound = np.concatenate([[0.0], path.seg_s0[jk + 1], [L_total]])
+    s_bound = np.concatenate([[0.0], path.seg_s0[jk + 1], [path.total_length]])
     length = np.maximum(np.diff(s_bound), 0.0)
     first_seg = np.concatenate([[0], jk + 1])
     feed = seg_feed[first_seg]
@@ -194,44 +167,9 @@ def plan(
     dwell[:-1] = dw[jk]
     if dwell_s is not None:
         dwell[-1] = dwell_s[-1]
-
-    # look-ahead: backward (each junction ≤ what the rest can still brake from), then forward
-    # (≤ what can be reached from the previous one); D(v0, v1) is symmetric, so both passes
-    # together give |transition| ≤ block length on every block
-    eff = (length * (1.0 - _LENGTH_MARGIN)).tolist()
-    vl = v.tolist()
-    for b in range(m - 1, -1, -1):
-        if vl[b] > vl[b + 1]:
-            r = reach_speed(vl[b + 1], eff[b], a_max, j_max)
-            if r < vl[b]:
-                vl[b] = r
-    for b in range(m):
-        if vl[b + 1] > vl[b]:
-            r = reach_speed(vl[b], eff[b], a_max, j_max)
-            if r < vl[b + 1]:
-                vl[b + 1] = r
-    v = np.array(vl)
+    v = _look_ahead(v, length, a_max, j_max)
     v_in, v_out = v[:-1], v[1:]
-
-    # peak per block: the feed if both transitions fit, else the largest vp whose two do
-    # (bisection on [max(v_in, v_out), F]; D(v_in, v_out) ≤ L after the passes)
-    def needed(a, vp, b):
-        return transition_distance(a, vp, a_max, j_max) + transition_distance(vp, b, a_max, j_max)
-
-    vp = feed.copy()
-    short = needed(v_in, vp, v_out) > length
-    if np.any(short):
-        idx = np.nonzero(short)[0]
-        vi, vo = v_in[idx], v_out[idx]
-        lo = np.maximum(vi, vo)
-        hi = feed[idx].copy()
-        target = length[idx]
-        for _ in range(_BISECT_ITERS):
-            mid = 0.5 * (lo + hi)
-            ok = needed(vi, mid, vo) <= target
-            lo = np.where(ok, mid, lo)
-            hi = np.where(ok, hi, mid)
-        vp[idx] = lo
+    vp = _peak_feeds(feed, v_in, v_out, length, a_max, j_max)
     ta1 = transition_time(vp - v_in, a_max, j_max)
     ta2 = transition_time(vp - v_out, a_max, j_max)
     d1 = 0.5 * (v_in + vp) * ta1
@@ -254,6 +192,81 @@ def plan(
     tab[:, TMOVE] = t0 + move
     tab[:, TEND] = t0 + move + dwell
     return tab
+
+
+def _junctions(path, seg_feed, a_max, j_max, corner_tol_rad, blend_m, dwell_s) -> tuple:
+    """(the interior joints k that are junctions, the speed cap (m/s) and the dwell (s) at
+    every interior joint) — the rules of `plan`."""
+    n = path.n_segments
+    if n <= 1:
+        return np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)
+    theta = junction_angles(path)
+    corner = theta > corner_tol_rad
+    f_l, f_r = seg_feed[:-1], seg_feed[1:]
+    change = f_l != f_r
+    dw = dwell_s[:-1] if dwell_s is not None else np.zeros(n - 1)
+    cap = np.minimum(f_l, f_r)
+    if blend_m is None:
+        cap = np.where(corner | change, 0.0, cap)
+        is_j = corner | change | (dw > 0)
+    else:
+        delta = blend_m[:-1]
+        v_corner = junction_speed(theta, delta, a_max, j_max)
+        cap = np.where(corner, np.minimum(cap, v_corner), cap)
+        cap = np.where(delta == 0.0, 0.0, cap)
+        # a G64 corner that allows at least the (same) feed on both sides constrains
+        # nothing: not a junction, so that ramps and cruises run through it (a finely
+        # tessellated curve is one block)
+        transparent = corner & ~change & (delta > 0) & (v_corner >= f_l)
+        is_j = (corner & ~transparent) | change | (dw > 0)
+    cap = np.where(dw > 0, 0.0, cap)
+    return np.nonzero(is_j)[0], cap, dw
+
+
+def _look_ahead(v: np.ndarray, length: np.ndarray, a_max: float, j_max: float) -> np.ndarray:
+    """The block-boundary speeds ``v`` (m + 1,) lowered so that every block's transition
+    fits its ``length`` (m,)."""
+    # backward (each junction ≤ what the rest can still brake from), then forward (≤ what can
+    # be reached from the previous one); D(v0, v1) is symmetric, so both passes together give
+    # |transition| ≤ block length on every block
+    m = length.size
+    eff = (length * (1.0 - _LENGTH_MARGIN)).tolist()
+    vl = v.tolist()
+    for b in range(m - 1, -1, -1):
+        if vl[b] > vl[b + 1]:
+            r = reach_speed(vl[b + 1], eff[b], a_max, j_max)
+            if r < vl[b]:
+                vl[b] = r
+    for b in range(m):
+        if vl[b + 1] > vl[b]:
+            r = reach_speed(vl[b], eff[b], a_max, j_max)
+            if r < vl[b + 1]:
+                vl[b + 1] = r
+    return np.array(vl)
+
+
+def _peak_feeds(feed, v_in, v_out, length, a_max: float, j_max: float) -> np.ndarray:
+    """Peak per block: the feed if both transitions fit, else the largest vp whose two do
+    (bisection on [max(v_in, v_out), F]; D(v_in, v_out) ≤ L after the look-ahead)."""
+
+    def needed(a, vp, b):
+        return transition_distance(a, vp, a_max, j_max) + transition_distance(vp, b, a_max, j_max)
+
+    vp = feed.copy()
+    short = needed(v_in, vp, v_out) > length
+    if np.any(short):
+        idx = np.nonzero(short)[0]
+        vi, vo = v_in[idx], v_out[idx]
+        lo = np.maximum(vi, vo)
+        hi = feed[idx].copy()
+        target = length[idx]
+        for _ in range(_BISECT_ITERS):
+            mid = 0.5 * (lo + hi)
+            ok = needed(vi, mid, vo) <= target
+            lo = np.where(ok, mid, lo)
+            hi = np.where(ok, hi, mid)
+        vp[idx] = lo
+    return vp
 
 
 def blocks(tab: np.ndarray) -> tuple:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import finite_number as _number
 from .feed import FeedProfile
 from .geometry import PathGeometry
 
@@ -106,15 +107,3 @@ class ReferenceTrajectory:
             servo_period_s=T,
             dim=int(path.dim),
         )
-
-
-def _number(name: str, value) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{name}: expected a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    return v

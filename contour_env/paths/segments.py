@@ -9,6 +9,8 @@ from functools import cached_property
 
 import numpy as np
 
+from .checks import finite_number
+
 SEG_LINE, SEG_ARC, SEG_CUBIC = 0, 1, 2
 
 # Orthonormality tolerance for an arc's u, v: builders produce them to ~1e-16, G-code uses unit
@@ -45,13 +47,7 @@ def _vec3(name: str, value) -> np.ndarray:
 
 
 def _finite(name: str, value) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(out):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    return out
+    return finite_number(name, value, bools=True)
 
 
 def _pad(radius: float, centre: np.ndarray) -> float:
