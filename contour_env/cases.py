@@ -124,30 +124,7 @@ def case_facts(spec: CaseSpec) -> dict:
     params, effects = nominal_params(spec.plant)
     T = float(params.servo_period_s)
     desc = spec.path
-    if desc["kind"] == "gcode":
-        program = read_gcode(DATA_DIR / desc["file"])
-        geometry = program.path
-        profile = FeedProfile.build(
-            geometry,
-            program.feedrate_m_s,
-            max_accel_m_s2=spec.max_accel_m_s2,
-            max_jerk_m_s3=spec.max_jerk_m_s3,
-            segment_feeds=program.segment_feeds_m_s,
-            **_planner_kwargs(program),
-        )
-        if abs(program.feedrate_m_s - spec.feedrate_m_s) > 1e-12:
-            raise ValueError(
-                f"case {spec.name}: feedrate_m_s {spec.feedrate_m_s} differs from the program's "
-                f"F ({program.feedrate_m_s} m/s)"
-            )
-    else:
-        geometry = _build_path(desc)
-        profile = FeedProfile.build(
-            geometry,
-            spec.feedrate_m_s,
-            max_accel_m_s2=spec.max_accel_m_s2,
-            max_jerk_m_s3=spec.max_jerk_m_s3,
-        )
+    program, geometry, profile = _facts_profile(spec)
     episode = profile.duration + spec.settle_time_s
     f = spec.feedrate_m_s
     facts = {
@@ -164,65 +141,11 @@ def case_facts(spec: CaseSpec) -> dict:
         "mode_hz": _per_axis(effects.structural_mode_hz),
     }
     if desc["kind"] == "circle":
-        r, start, sweep = desc["radius"], desc["start_angle"], desc["sweep"]
-        normal = np.asarray(desc["normal"], dtype=float)
-        normal = normal / np.linalg.norm(normal)
-        smallest = np.min(np.abs(normal[np.abs(normal) > 1e-12]))
-        ints = normal / smallest
-        normal_text = (
-            "(" + ", ".join(f"{int(round(x))}" for x in ints) + ")"
-            if np.allclose(ints, np.round(ints), atol=1e-9)
-            else "(" + ", ".join(f"{x:.3g}" for x in normal) + ")"
-        )
-        s = np.linspace(0.0, geometry.total_length, 20001)
-        vx = geometry.evaluate(s)["d1"][:, 0]
-        flips = np.nonzero((vx[1:] * vx[:-1] <= 0) & (np.abs(vx[1:]) + np.abs(vx[:-1]) > 0))[0]
-        facts.update(
-            r=_num(r),
-            r_mm=_num(round(r * 1e3, 9)),
-            centripetal=f"{f**2 / r:.2f}",
-            start_deg=_signed(round(math.degrees(start), 6)),
-            end_deg=_signed(round(math.degrees(start + sweep), 6)),
-            sweep_deg=_num(round(math.degrees(sweep), 6)),
-            tilt_deg=_num(round(math.degrees(math.acos(min(1.0, abs(normal[2])))), 6)),
-            normal=normal_text,
-            arc_s=f"{r * sweep / f:.1f}",
-            rev_s=f"{2 * math.pi * r / f:.0f}",
-            rev_steps=_grouped(round(2 * math.pi * r / f / T)),
-            x_reversal_deg=(
-                _num(round(math.degrees(start + s[flips[0]] / r)) + 0.0) if len(flips) else "none"
-            ),
-        )
+        facts.update(_circle_facts(desc, geometry, f, T))
     elif desc["kind"] == "polyline":
-        pts = np.asarray(desc["points"], dtype=float)
-        legs = np.diff(pts, axis=0)
-        lengths = np.linalg.norm(legs, axis=1)
-        unit = legs / lengths[:, None]
-        turns = np.degrees(np.arccos(np.clip(np.sum(unit[1:] * unit[:-1], axis=1), -1, 1)))
-        facts.update(
-            legs_mm=_per_axis(np.unique(np.round(lengths * 1e3, 6))),
-            corner_deg=_per_axis(np.round(turns, 6)),
-        )
+        facts.update(_polyline_facts(desc))
     elif desc["kind"] == "gcode":
-        # corners: direction changes between consecutive segments (tangent at the joint)
-        s0 = geometry.seg_s0
-        joints = s0[1:] if len(s0) > 1 else np.zeros(0)
-        before = geometry.evaluate(np.maximum(joints - 1e-9, 0.0))["d1"]
-        after = geometry.evaluate(joints + 1e-9)["d1"]
-        cos = np.sum(before * after, axis=1) / (
-            np.linalg.norm(before, axis=1) * np.linalg.norm(after, axis=1)
-        )
-        turns = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-        blend = np.unique(program.segment_blend_m[:-1][turns > 0.1])
-        facts.update(
-            file=desc["file"],
-            length_mm=_num(round(geometry.total_length * 1e3, 1)),
-            n_segments=str(geometry.n_segments),
-            corner_deg=_per_axis(np.round(np.sort(turns[turns > 0.1]), 0)),
-            blend_um=_per_axis(np.round(blend * 1e6, 3)),
-            duration_at_feed_s=f"{geometry.total_length / f:.2f}",
-            profile_s=f"{profile.duration:.2f}",
-        )
+        facts.update(_gcode_facts(desc, program, geometry, profile, f))
     mass_scale = spec.true_scale.get("mass_kg")
     if mass_scale is not None:
         facts.update(
@@ -230,6 +153,106 @@ def case_facts(spec: CaseSpec) -> dict:
             mass_short_pct=_per_axis(sorted({round((m - 1) * 100, 6) for m in mass_scale})),
         )
     return facts
+
+
+def _facts_profile(spec: CaseSpec) -> tuple:
+    """(the G-code program or None, the path, its feed profile) of a feed-drive case, for
+    case_facts; a program's F must be the case's feed rate."""
+    desc = spec.path
+    if desc["kind"] != "gcode":
+        geometry = _build_path(desc)
+        profile = FeedProfile.build(
+            geometry,
+            spec.feedrate_m_s,
+            max_accel_m_s2=spec.max_accel_m_s2,
+            max_jerk_m_s3=spec.max_jerk_m_s3,
+        )
+        return None, geometry, profile
+    program = read_gcode(DATA_DIR / desc["file"])
+    geometry = program.path
+    profile = FeedProfile.build(
+        geometry,
+        program.feedrate_m_s,
+        max_accel_m_s2=spec.max_accel_m_s2,
+        max_jerk_m_s3=spec.max_jerk_m_s3,
+        segment_feeds=program.segment_feeds_m_s,
+        **_planner_kwargs(program),
+    )
+    if abs(program.feedrate_m_s - spec.feedrate_m_s) > 1e-12:
+        raise ValueError(
+            f"case {spec.name}: feedrate_m_s {spec.feedrate_m_s} differs from the program's "
+            f"F ({program.feedrate_m_s} m/s)"
+        )
+    return program, geometry, profile
+
+
+def _circle_facts(desc: dict, geometry: PathGeometry, f: float, T: float) -> dict:
+    """case_facts of a circle case (``f``: feed, m/s; ``T``: servo period, s)."""
+    r, start, sweep = desc["radius"], desc["start_angle"], desc["sweep"]
+    normal = np.asarray(desc["normal"], dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    smallest = np.min(np.abs(normal[np.abs(normal) > 1e-12]))
+    ints = normal / smallest
+    normal_text = (
+        "(" + ", ".join(f"{int(round(x))}" for x in ints) + ")"
+        if np.allclose(ints, np.round(ints), atol=1e-9)
+        else "(" + ", ".join(f"{x:.3g}" for x in normal) + ")"
+    )
+    s = np.linspace(0.0, geometry.total_length, 20001)
+    vx = geometry.evaluate(s)["d1"][:, 0]
+    flips = np.nonzero((vx[1:] * vx[:-1] <= 0) & (np.abs(vx[1:]) + np.abs(vx[:-1]) > 0))[0]
+    return dict(
+        r=_num(r),
+        r_mm=_num(round(r * 1e3, 9)),
+        centripetal=f"{f**2 / r:.2f}",
+        start_deg=_signed(round(math.degrees(start), 6)),
+        end_deg=_signed(round(math.degrees(start + sweep), 6)),
+        sweep_deg=_num(round(math.degrees(sweep), 6)),
+        tilt_deg=_num(round(math.degrees(math.acos(min(1.0, abs(normal[2])))), 6)),
+        normal=normal_text,
+        arc_s=f"{r * sweep / f:.1f}",
+        rev_s=f"{2 * math.pi * r / f:.0f}",
+        rev_steps=_grouped(round(2 * math.pi * r / f / T)),
+        x_reversal_deg=(
+            _num(round(math.degrees(start + s[flips[0]] / r)) + 0.0) if len(flips) else "none"
+        ),
+    )
+
+
+def _polyline_facts(desc: dict) -> dict:
+    """case_facts of a polyline case: leg lengths and corner angles."""
+    pts = np.asarray(desc["points"], dtype=float)
+    legs = np.diff(pts, axis=0)
+    lengths = np.linalg.norm(legs, axis=1)
+    unit = legs / lengths[:, None]
+    turns = np.degrees(np.arccos(np.clip(np.sum(unit[1:] * unit[:-1], axis=1), -1, 1)))
+    return dict(
+        legs_mm=_per_axis(np.unique(np.round(lengths * 1e3, 6))),
+        corner_deg=_per_axis(np.round(turns, 6)),
+    )
+
+
+def _gcode_facts(desc: dict, program, geometry: PathGeometry, profile, f: float) -> dict:
+    """case_facts of a G-code case: its file, length, segments, corners, blends, durations."""
+    # corners: direction changes between consecutive segments (tangent at the joint)
+    s0 = geometry.seg_s0
+    joints = s0[1:] if len(s0) > 1 else np.zeros(0)
+    before = geometry.evaluate(np.maximum(joints - 1e-9, 0.0))["d1"]
+    after = geometry.evaluate(joints + 1e-9)["d1"]
+    cos = np.sum(before * after, axis=1) / (
+        np.linalg.norm(before, axis=1) * np.linalg.norm(after, axis=1)
+    )
+    turns = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    blend = np.unique(program.segment_blend_m[:-1][turns > 0.1])
+    return dict(
+        file=desc["file"],
+        length_mm=_num(round(geometry.total_length * 1e3, 1)),
+        n_segments=str(geometry.n_segments),
+        corner_deg=_per_axis(np.round(np.sort(turns[turns > 0.1]), 0)),
+        blend_um=_per_axis(np.round(blend * 1e6, 3)),
+        duration_at_feed_s=f"{geometry.total_length / f:.2f}",
+        profile_s=f"{profile.duration:.2f}",
+    )
 
 
 def _five_axis_facts(spec: CaseSpec) -> dict:
@@ -694,52 +717,11 @@ def _make_setup(
             settle=settle,
             rapid_feed=rapid_feed,
         )
+    notes = spec.notes if spec else ""
+    geometry, program, name = _setup_path(spec, case, plant, path, rapid_feed)
+    plant_obj = _setup_plant(spec, plant, ideal, structural_mode)
     segment_feeds = None
     segment_is_rapid = None
-    program = None
-    notes = spec.notes if spec else ""
-    name = case or "custom"
-    if path is None and spec.path["kind"] == "gcode":
-        # a named case on a program shipped in contour_env/data
-        path = str(DATA_DIR / spec.path["file"])
-        name = case
-    if path is None:
-        geometry = _build_path(spec.path)
-    elif isinstance(path, PathGeometry):
-        geometry = path
-    elif isinstance(path, (str, os.PathLike)):
-        text = os.fspath(path)
-        try:
-            if is_program_text(path):
-                program = parse_gcode(text, rapid_feed_m_s=rapid_feed)
-                name = case or "gcode"
-            else:
-                program = read_gcode(text, rapid_feed_m_s=rapid_feed)
-                name = case or os.path.basename(text)
-        except ValueError as exc:
-            if "rotary axis" not in str(exc):
-                raise
-            on = plant if plant is not None else spec.plant
-            raise ValueError(
-                f"{exc}; the plant {on!r} has only linear axes: A and C words need "
-                "plant='five-axis'"
-            ) from None
-        geometry = program.path
-    else:
-        raise ValueError(
-            "path: expected a PathGeometry, G-code text or a G-code file (a str or "
-            f"os.PathLike), got {type(path).__name__}"
-        )
-    # a case's true-plant change (a payload) belongs to its own plant, not to another one
-    own_plant = spec is not None and (
-        plant is None or (isinstance(plant, str) and PLANT_ALIASES.get(plant, plant) == spec.plant)
-    )
-    plant_obj = Plant(
-        plant if plant is not None else spec.plant,
-        ideal=ideal,
-        structural_mode=structural_mode,
-        true_scale=spec.true_scale if own_plant and spec.true_scale else None,
-    )
     if program is not None:
         if program.path.dim == 3 and plant_obj.n_axes == 2:
             # Z taken by an unsimulated axis (or refused with strict=True)
@@ -759,24 +741,7 @@ def _make_setup(
                 f"path: a {geometry.dim}-D path cannot be followed by the {plant_obj.n_axes}-axis "
                 f"plant {plant_obj.name!r} (a 2-axis plant needs a path in the xy-plane, z = 0)"
             )
-    if feedrate is None:
-        if spec is None:
-            raise ValueError("feedrate_m_s: required for a custom path without F words")
-        feedrate = spec.feedrate_m_s
-    accel = max_accel if max_accel is not None else (spec.max_accel_m_s2 if spec else 2.0)
-    jerk = max_jerk if max_jerk is not None else (spec.max_jerk_m_s3 if spec else 40.0)
-    settle_s = settle if settle is not None else (spec.settle_time_s if spec else 0.1)
-    for label, value in (
-        ("feedrate_m_s", feedrate),
-        ("max_accel_m_s2", accel),
-        ("max_jerk_m_s3", jerk),
-    ):
-        if not (
-            isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0
-        ):
-            raise ValueError(f"{label}: must be a finite number > 0, got {value!r}")
-    if not (math.isfinite(settle_s) and settle_s >= 0):
-        raise ValueError(f"settle_time_s: must be >= 0 seconds, got {settle_s!r}")
+    feedrate, accel, jerk, settle_s = _setup_limits(spec, feedrate, max_accel, max_jerk, settle)
     planner = {}
     if program is not None:
         # the program's G61/G64 modes and G04 dwells drive the look-ahead feed planner
@@ -811,3 +776,80 @@ def _make_setup(
         program_summary=program.summary() if program is not None else "",
         program_notes=tuple(program.notes) if program is not None else (),
     )
+
+
+def _setup_path(spec, case, plant, path, rapid_feed) -> tuple:
+    """(the path, the G-code program or None, the setup's name) of `_make_setup`: the case's
+    own path, a PathGeometry, G-code text or a G-code file."""
+    program = None
+    name = case or "custom"
+    if path is None and spec.path["kind"] == "gcode":
+        # a named case on a program shipped in contour_env/data
+        path = str(DATA_DIR / spec.path["file"])
+        name = case
+    if path is None:
+        geometry = _build_path(spec.path)
+    elif isinstance(path, PathGeometry):
+        geometry = path
+    elif isinstance(path, (str, os.PathLike)):
+        text = os.fspath(path)
+        try:
+            if is_program_text(path):
+                program = parse_gcode(text, rapid_feed_m_s=rapid_feed)
+                name = case or "gcode"
+            else:
+                program = read_gcode(text, rapid_feed_m_s=rapid_feed)
+                name = case or os.path.basename(text)
+        except ValueError as exc:
+            if "rotary axis" not in str(exc):
+                raise
+            on = plant if plant is not None else spec.plant
+            raise ValueError(
+                f"{exc}; the plant {on!r} has only linear axes: A and C words need "
+                "plant='five-axis'"
+            ) from None
+        geometry = program.path
+    else:
+        raise ValueError(
+            "path: expected a PathGeometry, G-code text or a G-code file (a str or "
+            f"os.PathLike), got {type(path).__name__}"
+        )
+    return geometry, program, name
+
+
+def _setup_plant(spec, plant, ideal, structural_mode) -> Plant:
+    """The plant of `_make_setup`: ``plant`` or the case's own, with the case's true-plant
+    change (a payload) only on the case's own plant."""
+    own_plant = spec is not None and (
+        plant is None or (isinstance(plant, str) and PLANT_ALIASES.get(plant, plant) == spec.plant)
+    )
+    return Plant(
+        plant if plant is not None else spec.plant,
+        ideal=ideal,
+        structural_mode=structural_mode,
+        true_scale=spec.true_scale if own_plant and spec.true_scale else None,
+    )
+
+
+def _setup_limits(spec, feedrate, max_accel, max_jerk, settle) -> tuple:
+    """(feed rate, acceleration, jerk, settle time) of `_make_setup`: the given values, else
+    the case's (defaults for a custom path: 2 m/s², 40 m/s³, 0.1 s; a feed rate is needed)."""
+    if feedrate is None:
+        if spec is None:
+            raise ValueError("feedrate_m_s: required for a custom path without F words")
+        feedrate = spec.feedrate_m_s
+    accel = max_accel if max_accel is not None else (spec.max_accel_m_s2 if spec else 2.0)
+    jerk = max_jerk if max_jerk is not None else (spec.max_jerk_m_s3 if spec else 40.0)
+    settle_s = settle if settle is not None else (spec.settle_time_s if spec else 0.1)
+    for label, value in (
+        ("feedrate_m_s", feedrate),
+        ("max_accel_m_s2", accel),
+        ("max_jerk_m_s3", jerk),
+    ):
+        if not (
+            isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0
+        ):
+            raise ValueError(f"{label}: must be a finite number > 0, got {value!r}")
+    if not (math.isfinite(settle_s) and settle_s >= 0):
+        raise ValueError(f"settle_time_s: must be >= 0 seconds, got {settle_s!r}")
+    return feedrate, accel, jerk, settle_s
