@@ -710,70 +710,8 @@ def stability_report(
             )
     F = _check_circle(radius_m, feedrates_m_s)
 
-    # stability confirmed by simulation
-    kb, ka = SIM_FACTORS[0] * limit, SIM_FACTORS[1] * limit
-    sim = simulate_step_response(base, [kb, ka], duration_s=sim_duration_s, step_m=step_m)
-    pred_rate = [
-        max(
-            math.log(max(float(np.max(np.abs(np.roots(m.characteristic(g))))), 1e-300))
-            for m in models
-        )
-        / base.servo_period_s
-        for g in (kb, ka)
-    ]
-    g_below, g_above = (float(x) for x in sim["growth"])
-    simulation = {
-        "kp_below": kb,
-        "kp_above": ka,
-        "stable_below": bool(sim["stopped_at_s"][0] is None and g_below < 1.0),
-        "diverged_above": bool(sim["stopped_at_s"][1] is not None or g_above > 1.0),
-        "growth_below": g_below,
-        "growth_above": g_above,
-        "rate_below_per_s": float(sim["rate_per_s"][0]),
-        "rate_above_per_s": float(sim["rate_per_s"][1]),
-        "predicted_rate_below_per_s": pred_rate[0],
-        "predicted_rate_above_per_s": pred_rate[1],
-        "stopped_at_s": sim["stopped_at_s"],
-        "duration_s": float(sim["time_s"][-1] + base.servo_period_s),
-        "step_m": float(step_m),
-        "growth_definition": (
-            "max |x_ref − x| over all axes in the last 25 % of the run / the same over the "
-            "first 25 %; rate = ln(growth)/elapsed time; predicted rate = ln(max |root of "
-            "Ω1|)/T"
-        ),
-    }
-
-    # steady state on a circle
-    sims = simulate_circle(base, kp_used, radius_m, F, plane, models=models)
-    steady = []
-    for f, s in zip(F, sims, strict=True):
-        p = steady_state_prediction(models, kp_used, radius_m, float(f), plane)
-        pc, pt = p["contour_error_m"], p["tracking_error_m"]
-        sc, st = s["contour_error_m"], s["tracking_error_m"]
-        steady.append(
-            {
-                "feedrate_m_s": float(f),
-                "feedrate_m_min": float(f) * 60.0,
-                "radius_m": float(radius_m),
-                "omega_rad_s": p["omega_rad_s"],
-                "predicted_contour_error_um": pc * 1e6,
-                "simulated_contour_error_um": _um(sc),
-                "predicted_tracking_error_um": pt * 1e6,
-                "simulated_tracking_error_um": _um(st),
-                "contour_ratio": _ratio(pc, sc),
-                "tracking_ratio": _ratio(pt, st),
-                "matched_formula_um": {
-                    a: {
-                        "contour": d["contour_error_m"] * 1e6,
-                        "tracking": d["tracking_error_m"] * 1e6,
-                        "lag_steps_d": d["lag_steps_d"],
-                    }
-                    for a, d in p["matched_formula"].items()
-                },
-                "simulation_diverged": s["diverged"],
-                "peak_command_fraction_of_limit": s["peak_command_fraction_of_limit"],
-            }
-        )
+    simulation = _stability_simulation(base, models, limit, sim_duration_s, step_m)
+    steady = _steady_state_rows(base, models, kp_used, radius_m, F, plane)
     p = base.params
     return {
         "plant": base.name,
@@ -804,6 +742,78 @@ def stability_report(
             + ". Steady state: circle in the given plane, errors are maxima over one revolution."
         ),
     }
+
+
+def _stability_simulation(base, models, limit, sim_duration_s, step_m) -> dict:
+    """stability_report's ``simulation``: step responses just below and just above the gain
+    limit (SIM_FACTORS), their growth and rate against the rate the roots predict."""
+    kb, ka = SIM_FACTORS[0] * limit, SIM_FACTORS[1] * limit
+    sim = simulate_step_response(base, [kb, ka], duration_s=sim_duration_s, step_m=step_m)
+    pred_rate = [
+        max(
+            math.log(max(float(np.max(np.abs(np.roots(m.characteristic(g))))), 1e-300))
+            for m in models
+        )
+        / base.servo_period_s
+        for g in (kb, ka)
+    ]
+    g_below, g_above = (float(x) for x in sim["growth"])
+    return {
+        "kp_below": kb,
+        "kp_above": ka,
+        "stable_below": bool(sim["stopped_at_s"][0] is None and g_below < 1.0),
+        "diverged_above": bool(sim["stopped_at_s"][1] is not None or g_above > 1.0),
+        "growth_below": g_below,
+        "growth_above": g_above,
+        "rate_below_per_s": float(sim["rate_per_s"][0]),
+        "rate_above_per_s": float(sim["rate_per_s"][1]),
+        "predicted_rate_below_per_s": pred_rate[0],
+        "predicted_rate_above_per_s": pred_rate[1],
+        "stopped_at_s": sim["stopped_at_s"],
+        "duration_s": float(sim["time_s"][-1] + base.servo_period_s),
+        "step_m": float(step_m),
+        "growth_definition": (
+            "max |x_ref − x| over all axes in the last 25 % of the run / the same over the "
+            "first 25 %; rate = ln(growth)/elapsed time; predicted rate = ln(max |root of "
+            "Ω1|)/T"
+        ),
+    }
+
+
+def _steady_state_rows(base, models, kp_used, radius_m, F, plane) -> list[dict]:
+    """stability_report's ``steady_state``: per feedrate, the predicted and the simulated
+    contour and tracking errors on the circle."""
+    sims = simulate_circle(base, kp_used, radius_m, F, plane, models=models)
+    steady = []
+    for f, s in zip(F, sims, strict=True):
+        p = steady_state_prediction(models, kp_used, radius_m, float(f), plane)
+        pc, pt = p["contour_error_m"], p["tracking_error_m"]
+        sc, st = s["contour_error_m"], s["tracking_error_m"]
+        steady.append(
+            {
+                "feedrate_m_s": float(f),
+                "feedrate_m_min": float(f) * 60.0,
+                "radius_m": float(radius_m),
+                "omega_rad_s": p["omega_rad_s"],
+                "predicted_contour_error_um": pc * 1e6,
+                "simulated_contour_error_um": _um(sc),
+                "predicted_tracking_error_um": pt * 1e6,
+                "simulated_tracking_error_um": _um(st),
+                "contour_ratio": _ratio(pc, sc),
+                "tracking_ratio": _ratio(pt, st),
+                "matched_formula_um": {
+                    a: {
+                        "contour": d["contour_error_m"] * 1e6,
+                        "tracking": d["tracking_error_m"] * 1e6,
+                        "lag_steps_d": d["lag_steps_d"],
+                    }
+                    for a, d in p["matched_formula"].items()
+                },
+                "simulation_diverged": s["diverged"],
+                "peak_command_fraction_of_limit": s["peak_command_fraction_of_limit"],
+            }
+        )
+    return steady
 
 
 def _jsonable(x):

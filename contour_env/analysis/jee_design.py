@@ -656,6 +656,40 @@ def simulate_cc_circle(
     F = _check_circle(radius_m, feedrates_m_s)
     R0 = float(radius_m)
     omegas = F / R0
+    n_settle, rho = _settle_steps(true, kp, cp, ci, cd, delay, T, settle_tol, max_settle_s)
+    n_rev = np.maximum(1, np.round(2.0 * np.pi / (omegas * T)).astype(np.int64))
+    n = n_settle + int(np.max(n_rev))
+    B = F.size
+    state = sim.initial_state(np.zeros((B, n_ax)))
+    s_sum = np.zeros((B, n_ax))
+    prev = np.zeros((B, n_ax))
+    if warm_start:
+        _cc_warm_start(state, prev, s_sum, true, kp, cp, ci, cd, R0, omegas, u, v, delay, T)
+    else:
+        state = sim.initial_state(np.broadcast_to(R0 * u, (B, n_ax)))
+    active, contour, tracking = _run_cc_circle(
+        sim, state, s_sum, prev, kp, cp, ci, cd, R0, omegas, u, v, n, n_rev
+    )
+    out = []
+    for b in range(B):
+        ok = bool(active[b])
+        out.append(
+            {
+                "feedrate_m_s": float(F[b]),
+                "diverged": not ok,
+                "contour_error_m": float(contour[b]) if ok else None,
+                "tracking_error_m": float(tracking[b]) if ok else None,
+                "settle_steps": n_settle,
+                "revolution_steps": int(n_rev[b]),
+                "max_frozen_root": rho,
+            }
+        )
+    return out
+
+
+def _settle_steps(true, kp, cp, ci, cd, delay, T, settle_tol, max_settle_s) -> tuple[int, float]:
+    """(steps for the slowest frozen closed-loop root of the law on the axes ``true`` to
+    decay to ``settle_tol``, at most ``max_settle_s`` and at least one; that root's modulus)."""
     rho = 0.0
     for mdl in true:
         for M in M_VALUES:
@@ -669,17 +703,14 @@ def simulate_cc_circle(
         )
     else:
         n_settle = int(max_settle_s / T)
-    n_settle = max(n_settle, 1)
-    n_rev = np.maximum(1, np.round(2.0 * np.pi / (omegas * T)).astype(np.int64))
-    n = n_settle + int(np.max(n_rev))
-    B = F.size
-    state = sim.initial_state(np.zeros((B, n_ax)))
-    s_sum = np.zeros((B, n_ax))
-    prev = np.zeros((B, n_ax))
+    return max(n_settle, 1), rho
+
+
+def _cc_warm_start(state, prev, s_sum, true, kp, cp, ci, cd, R0, omegas, u, v, delay, T) -> None:
+    """Puts each env b of ``state`` (and the law's ``prev`` ε and running sum ``s_sum``) on
+    the harmonic-balance orbit of the axes ``true`` at ω = omegas[b]."""
     zoh = [_zoh_axis(m.mass, m.viscous, T) for m in true]
-    if not warm_start:
-        state = sim.initial_state(np.broadcast_to(R0 * u, (B, n_ax)))
-    for b in range(B if warm_start else 0):
+    for b in range(omegas.size):
         S, Ehat, Uhat, eps = (
             x if i == 0 else x[0]
             for i, x in enumerate(
@@ -700,6 +731,14 @@ def simulate_cc_circle(
             state.u_pending[b] = np.real(back @ Uhat)
         prev[b] = np.real(back @ eps)
         s_sum[b] = np.real((back * T * zs / (zs - 1.0)) @ eps)
+
+
+def _run_cc_circle(sim, state, s_sum, prev, kp, cp, ci, cd, R0, omegas, u, v, n, n_rev) -> tuple:
+    """Runs the law for ``n`` steps on the circle, one env per ω in ``omegas``: (whether each
+    env stayed within 100 R, its max true distance to the circle and max ‖r − x‖ over its
+    last ``n_rev`` steps)."""
+    B = omegas.size
+    T = sim.servo_period_s
     packed = sim.packed_batch(B)
     ks = np.arange(n)
     th = np.outer(ks * T, omegas)  # (n, B)
@@ -730,21 +769,7 @@ def simulate_cc_circle(
         new, _ = sim.step(state, cmd, k * T, packed)
         new.z[~active] = state.z[~active]
         state = new
-    out = []
-    for b in range(B):
-        ok = bool(active[b])
-        out.append(
-            {
-                "feedrate_m_s": float(F[b]),
-                "diverged": not ok,
-                "contour_error_m": float(contour[b]) if ok else None,
-                "tracking_error_m": float(tracking[b]) if ok else None,
-                "settle_steps": n_settle,
-                "revolution_steps": int(n_rev[b]),
-                "max_frozen_root": rho,
-            }
-        )
-    return out
+    return active, contour, tracking
 
 
 # --------------------------------------------------------------------------- loop margins
