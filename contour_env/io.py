@@ -135,20 +135,13 @@ def atomic_save(path, save: Callable[[str], object], suffix: str | None = None) 
 
 
 def _write(path, data, mode: str, encoding: str | None) -> Path:
-    path = Path(path)
-    fd, tmp = _tmp_for(path, ".tmp")
-    try:
-        with os.fdopen(fd, mode, encoding=encoding) as fh:
+    def save(tmp: str) -> None:
+        with open(tmp, mode, encoding=encoding) as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        apply_default_mode(tmp, directory=False)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+
+    return atomic_save(path, save, ".tmp")
 
 
 def atomic_write_text(path, text: str) -> Path:

@@ -21,25 +21,30 @@ import numpy as np
 INPUT_KINDS = ("force", "velocity-command")
 
 
-def _axis_array(name: str, value, n_axes: int, *, positive=False, nonneg=False) -> np.ndarray:
+def _axis_array(
+    name: str, value, n_axes: int, *, positive=False, nonneg=False, member: str = "axis"
+) -> np.ndarray:
+    """``value`` (a number, or one per axis) as a finite float (n_axes,) array, > 0 or >= 0
+    everywhere when asked; ``member`` names an entry in messages ("axis"; "joint" for the
+    five-axis plant)."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(
-            f"{name}: expected a number or {n_axes} per-axis numbers, got {value!r}"
+            f"{name}: expected a number or {n_axes} per-{member} numbers, got {value!r}"
         ) from None
     if arr.ndim == 0:
         arr = np.full(n_axes, float(arr))
     if arr.shape != (n_axes,):
         raise ValueError(
-            f"{name}: expected a scalar or {n_axes} per-axis values, got shape {arr.shape}"
+            f"{name}: expected a scalar or {n_axes} per-{member} values, got shape {arr.shape}"
         )
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: values must be finite, got {arr.tolist()}")
     if positive and np.any(arr <= 0):
-        raise ValueError(f"{name}: must be > 0 on every axis, got {arr.tolist()}")
+        raise ValueError(f"{name}: must be > 0 on every {member}, got {arr.tolist()}")
     if nonneg and np.any(arr < 0):
-        raise ValueError(f"{name}: must be >= 0 on every axis, got {arr.tolist()}")
+        raise ValueError(f"{name}: must be >= 0 on every {member}, got {arr.tolist()}")
     return arr
 
 

@@ -40,15 +40,27 @@ IP_SIZE = 12
 N_JOINTS = 5
 
 
-@njit(cache=True)
-def mass_matrix_into(q, ip, m):
-    """M(ξ) of eq. 4 into m (5, 5); depends on A and C only."""
+@njit(cache=True, inline="always")
+def _pose_terms(q, ip):
+    # what M and its partials read: sin A, cos A, sin C, cos C and the cradle's and table's
+    # masses and offsets m3, m4, r3, h4, e4
     sa, ca = math.sin(q[3]), math.cos(q[3])
     sc, cc = math.sin(q[4]), math.cos(q[4])
-    m3, m4, r3, h4, e4 = ip[I_M3], ip[I_M4], ip[I_R3], ip[I_H4], ip[I_E4]
+    return sa, ca, sc, cc, ip[I_M3], ip[I_M4], ip[I_R3], ip[I_H4], ip[I_E4]
+
+
+@njit(cache=True, inline="always")
+def _zero_5x5(m):
     for i in range(5):
         for j in range(5):
             m[i, j] = 0.0
+
+
+@njit(cache=True)
+def mass_matrix_into(q, ip, m):
+    """M(ξ) of eq. 4 into m (5, 5); depends on A and C only."""
+    sa, ca, sc, cc, m3, m4, r3, h4, e4 = _pose_terms(q, ip)
+    _zero_5x5(m)
     m[0, 0] = ip[I_M2] + m3 + m4
     m[1, 1] = ip[I_M1] + ip[I_M2] + m3 + m4
     m[2, 2] = ip[I_M5]
@@ -63,13 +75,9 @@ def mass_matrix_into(q, ip, m):
 @njit(cache=True)
 def mass_matrix_partials_into(q, ip, dma, dmc):
     """∂M/∂A into dma and ∂M/∂C into dmc (5, 5); ∂M/∂x = ∂M/∂y = ∂M/∂z = 0."""
-    sa, ca = math.sin(q[3]), math.cos(q[3])
-    sc, cc = math.sin(q[4]), math.cos(q[4])
-    m3, m4, r3, h4, e4 = ip[I_M3], ip[I_M4], ip[I_R3], ip[I_H4], ip[I_E4]
-    for i in range(5):
-        for j in range(5):
-            dma[i, j] = 0.0
-            dmc[i, j] = 0.0
+    sa, ca, sc, cc, m3, m4, r3, h4, e4 = _pose_terms(q, ip)
+    _zero_5x5(dma)
+    _zero_5x5(dmc)
     dma[1, 3] = dma[3, 1] = -m3 * r3 * sa + m4 * (-h4 * sa + e4 * ca * sc)
     dma[1, 4] = dma[4, 1] = m4 * e4 * sa * cc
     dmc[0, 4] = dmc[4, 0] = m4 * e4 * cc

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from ..params import _axis_array
 from .dynamics import IP_SIZE, mass_matrix_into
 from .kinematics import FiveAxisGeometry
 
@@ -103,22 +104,9 @@ class FiveAxisInertia:
 
 
 def _joint_array(name: str, value, *, positive=False) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name}: expected a number or 5 per-joint numbers, got {value!r}"
-        ) from None
-    if arr.ndim == 0:
-        arr = np.full(5, float(arr))
-    if arr.shape != (5,):
-        raise ValueError(f"{name}: expected a scalar or 5 per-joint values, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: values must be finite, got {arr.tolist()}")
-    if positive and np.any(arr <= 0):
-        raise ValueError(f"{name}: must be > 0 on every joint, got {arr.tolist()}")
-    if np.any(arr < 0):
-        raise ValueError(f"{name}: must be >= 0 on every joint, got {arr.tolist()}")
+    """``value`` (a number, or one per joint) as a read-only (5,) array, >= 0 (> 0 when
+    ``positive``)."""
+    arr = _axis_array(name, value, 5, positive=positive, nonneg=True, member="joint")
     arr.setflags(write=False)
     return arr
 
