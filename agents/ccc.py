@@ -42,6 +42,13 @@ def contour_error_estimate(signals: dict) -> tuple[np.ndarray, np.ndarray | None
     return eps_n, eps_b
 
 
+def _coupling_gain(keyword: str, kind: str, unit: str) -> Param:
+    """The command-line parameter of one cross-coupling gain (``ccc:wp=3e4``)."""
+    return Param(
+        keyword, f"cross-coupling {kind} gain {keyword}, {unit} (default per plant)", check=">=0"
+    )
+
+
 class CCCController(PDController):
     """Axial PD loops (the PD controller's gains) plus Koren's cross-coupled correction.
 
@@ -74,15 +81,9 @@ class CCCController(PDController):
     # command-line parameters (``ccc:wp=3e4:wd=20``; :mod:`agents.parameters`)
     PARAMETERS = {
         **PDController.PARAMETERS,
-        "wp": Param(
-            "W_p", "cross-coupling proportional gain W_p, 1/s² (default per plant)", check=">=0"
-        ),
-        "wi": Param(
-            "W_i", "cross-coupling integral gain W_i, 1/s³ (default per plant)", check=">=0"
-        ),
-        "wd": Param(
-            "W_d", "cross-coupling derivative gain W_d, 1/s (default per plant)", check=">=0"
-        ),
+        "wp": _coupling_gain("W_p", "proportional", "1/s²"),
+        "wi": _coupling_gain("W_i", "integral", "1/s³"),
+        "wd": _coupling_gain("W_d", "derivative", "1/s"),
     }
 
     def __init__(self, W_p=None, W_i=None, W_d=None, **pd_kwargs):

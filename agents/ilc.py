@@ -38,6 +38,7 @@ from .qfilter import (
     frequency_response,
     servo_loop_model,
 )
+from .records import attributes
 from .repeated_batch import fingerprint_of
 from .trial import TrialRecord
 
@@ -271,9 +272,7 @@ class LearningController(Controller):
     # --- saving ---------------------------------------------------------------------------
     def hyperparameters(self) -> dict:
         return {
-            "learning_gain": self.learning_gain,
-            "learning_bandwidth_rad_s": self.learning_bandwidth_rad_s,
-            "learning_damping": self.learning_damping,
+            **attributes(self, "learning_gain", "learning_bandwidth_rad_s", "learning_damping"),
             "lead_steps": self.lead_steps_arg,
             "q_cutoff_hz": self.q_cutoff_arg,
             "q_order": self.q_order,
@@ -368,6 +367,16 @@ class ILCPDController(LearningController):
         return self.learning_gain * self.mass * a
 
 
+def _direction_gain(direction: str, default: float) -> Param:
+    """The command-line parameter of the learning gain along one direction of the path
+    frame (``ilc-contour:gn=0.5``)."""
+    return Param(
+        f"{direction}_gain",
+        f"learning gain γ_{direction[0]}, {direction}, in (0, 2] (default {default})",
+        check=">0",
+    )
+
+
 class ILCContourController(LearningController):
     """``ilc-contour``: contouring ILC that learns on the task-frame errors.
 
@@ -394,15 +403,9 @@ class ILCContourController(LearningController):
     name = "ilc-contour"
     PARAMETERS = {
         **{k: v for k, v in LearningController.PARAMETERS.items() if k != "gain"},
-        "gt": Param(
-            "tangential_gain", "learning gain γ_t, tangential, in (0, 2] (default 0.3)", check=">0"
-        ),
-        "gn": Param(
-            "normal_gain", "learning gain γ_n, normal, in (0, 2] (default 0.8)", check=">0"
-        ),
-        "gb": Param(
-            "binormal_gain", "learning gain γ_b, binormal, in (0, 2] (default 0.8)", check=">0"
-        ),
+        "gt": _direction_gain("tangential", 0.3),
+        "gn": _direction_gain("normal", 0.8),
+        "gb": _direction_gain("binormal", 0.8),
     }
 
     def __init__(self, tangential_gain=0.3, normal_gain=0.8, binormal_gain=0.8, **kwargs):

@@ -259,15 +259,44 @@ def loop_margins(
     ctrl.configure_for(plant_obj)
     params = plant_obj.params
     n = params.n_axes
-    T = params.servo_period_s
-    axes = list(params.axis_names)
     conditions = [{"curvature": 0.0, "feedrate_m_s": 0.0}] + list(path_conditions or [])
-    omega = _omega_grid(T, _GRID_POINTS)
+    omega = _omega_grid(params.servo_period_s, _GRID_POINTS)
     # screen every (mass corner, direction, path condition, loop) on the grid, then refine
     # with python-control the few that decide a reported figure
-    screened = []  # (loop name, corner index, gm, pm, L, where, stable)
-    corner_stable = []
     corners = mass_corners(n, mass_variation)
+    screened, corner_stable = _screen_all(ctrl, params, corners, conditions, omega)
+    figures = _Refined(screened, omega, screen_only)
+    rows = _worst_per_loop(screened, figures)
+    by_mass = _worst_per_corner(screened, corners, corner_stable, figures)
+    min_gm = min(r["gain_margin_db"] for r in rows)
+    min_pm = min(r["phase_margin_deg"] for r in rows)
+    for r in rows:
+        r["gain_margin_db"] = _finite(r["gain_margin_db"])
+        r["phase_margin_deg"] = _finite(r["phase_margin_deg"])
+    return {
+        "plant": params.name,
+        "controller": label,
+        "ideal": bool(ideal),
+        "structural_mode": bool(structural_mode),
+        "mass_variation": mass_variation,
+        "directions": [d for d, _ in path_directions(n)],
+        "stable": all(corner_stable),
+        "loops": rows,
+        "min_gain_margin_db": _finite(min_gm),
+        "min_phase_margin_deg": _finite(min_pm),
+        "by_mass": by_mass,
+    }
+
+
+def _screen_all(ctrl, params, corners, conditions, omega) -> tuple[list[tuple], list[bool]]:
+    """Every (mass corner, path direction, path condition, loop) screened on the grid: the
+    entries ``(loop name, corner index, gm, pm, L, where, stable, screen)`` (gm and pm −∞
+    for an unstable closed loop), and per corner whether every closed loop is stable."""
+    n = params.n_axes
+    T = params.servo_period_s
+    axes = list(params.axis_names)
+    screened = []
+    corner_stable = []
     for ci, scale in enumerate(corners):
         P = discrete_plant(params.replace(mass_kg=params.mass_kg * np.asarray(scale)))
         stable_here = True
@@ -288,25 +317,38 @@ def loop_margins(
                         sc.update(gm=-math.inf, pm=-math.inf)
                     screened.append((name, ci, sc["gm"], sc["pm"], L, where, stable, sc))
         corner_stable.append(stable_here)
-    refined: dict[tuple, dict] = {}
+    return screened, corner_stable
 
-    def figures(k: int, kind: str) -> dict:
-        """The gain ("gm") or phase ("pm") margin of screened entry k, refined."""
-        if (k, kind) not in refined:
-            _, _, gm, pm, L, _, stable, sc = screened[k]
+
+class _Refined:
+    """``figures(k, kind)``: the gain ("gm") or phase ("pm") margin of screened entry k,
+    refined by python-control (unless ``screen_only``), each computed once."""
+
+    def __init__(self, screened: list[tuple], omega: np.ndarray, screen_only: bool):
+        self.screened = screened
+        self.omega = omega
+        self.screen_only = screen_only
+        self.refined: dict[tuple, dict] = {}
+
+    def __call__(self, k: int, kind: str) -> dict:
+        if (k, kind) not in self.refined:
+            _, _, gm, pm, L, _, stable, sc = self.screened[k]
             m = {"gain_margin_db": gm, "phase_margin_deg": pm, "phase_crossover_hz": None}
             m.update(crossover_hz=None, gain_reduction_margin_db=sc["red"])
-            if stable and not screen_only and (gm if kind == "gm" else pm) < math.inf:
-                lib = _library_margins(L, omega, sc["i_gm" if kind == "gm" else "i_pm"])
+            if stable and not self.screen_only and (gm if kind == "gm" else pm) < math.inf:
+                lib = _library_margins(L, self.omega, sc["i_gm" if kind == "gm" else "i_pm"])
                 keys = (
                     ("gain_margin_db", "phase_crossover_hz")
                     if kind == "gm"
                     else ("phase_margin_deg", "crossover_hz")
                 )
                 m.update({key: lib[key] for key in keys})
-            refined[(k, kind)] = m
-        return refined[(k, kind)]
+            self.refined[(k, kind)] = m
+        return self.refined[(k, kind)]
 
+
+def _worst_per_loop(screened: list[tuple], figures: _Refined) -> list[dict]:
+    """Per loop its worst gain and phase margins over the conditions (report rows)."""
     loops: dict[str, dict] = {}
     names = list(dict.fromkeys(e[0] for e in screened))
     for name in names:
@@ -315,6 +357,11 @@ def loop_margins(
             # the two lowest screened conditions (the grid's error could swap close ones)
             for k in sorted(mine, key=lambda k, c=col: screened[k][c])[:2]:
                 _keep_worst(loops, name, figures(k, kind), screened[k][5], kind)
+    return list(loops.values())
+
+
+def _worst_per_corner(screened, corners, corner_stable, figures: _Refined) -> list[dict]:
+    """Per mass corner: stable, and the gain and phase margin of its worst loop."""
     by_mass = []
     for ci, scale in enumerate(corners):
         mine = [k for k, e in enumerate(screened) if e[1] == ci]
@@ -328,26 +375,7 @@ def loop_margins(
                 "min_phase_margin_deg": _finite(figures(k_pm, "pm")["phase_margin_deg"]),
             }
         )
-    all_stable = all(corner_stable)
-    rows = list(loops.values())
-    min_gm = min(r["gain_margin_db"] for r in rows)
-    min_pm = min(r["phase_margin_deg"] for r in rows)
-    for r in rows:
-        r["gain_margin_db"] = _finite(r["gain_margin_db"])
-        r["phase_margin_deg"] = _finite(r["phase_margin_deg"])
-    return {
-        "plant": params.name,
-        "controller": label,
-        "ideal": bool(ideal),
-        "structural_mode": bool(structural_mode),
-        "mass_variation": mass_variation,
-        "directions": [d for d, _ in path_directions(n)],
-        "stable": all_stable,
-        "loops": rows,
-        "min_gain_margin_db": _finite(min_gm),
-        "min_phase_margin_deg": _finite(min_pm),
-        "by_mass": by_mass,
-    }
+    return by_mass
 
 
 def _finite(x):

@@ -258,11 +258,25 @@ def _agent_action(action, shape, what="action") -> np.ndarray:
 
 
 def _configure(
-    w, env, core, base, scale, observe_base_command, observation, action_repeat,
-    residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
-    fade_at_rest,
-) -> None:  # fmt: skip
-    """The residual law's settings, checked, on wrapper ``w`` (shared by both wrappers)."""
+    w,
+    env,
+    core,
+    base,
+    *,
+    scale=DEFAULT_SCALE,
+    observe_base_command=False,
+    action_repeat=None,
+    residual_penalty=0.0,
+    base_kwargs=None,
+    observation="full",
+    residual_axes="path",
+    residual_frame="axes",
+    gate=False,
+    observe_axes=False,
+    fade_at_rest=False,
+) -> None:
+    """The residual law's settings, checked, on wrapper ``w``: both wrappers' keyword
+    arguments (``**law``) and their defaults."""
     w.core = core
     w.scale = _check_scale(scale)
     w.residual_axes = _check_axes(residual_axes)
@@ -353,32 +367,12 @@ class ResidualWrapper(gym.Wrapper):
 
     __doc__ += _WRAPPER_DOC_ARGS
 
-    def __init__(
-        self,
-        env,
-        base="pd",
-        *,
-        scale=DEFAULT_SCALE,
-        observe_base_command=False,
-        action_repeat=None,
-        residual_penalty=0.0,
-        base_kwargs=None,
-        observation="full",
-        residual_axes="path",
-        residual_frame="axes",
-        gate=False,
-        observe_axes=False,
-        fade_at_rest=False,
-    ):
+    def __init__(self, env, base="pd", **law):
         holder, core = core_of(env)
         if hasattr(holder, "num_envs"):
             raise ValueError("env: a vectorised env; use ResidualVectorWrapper")
         super().__init__(env)
-        _configure(
-            self, env, core, base, scale, observe_base_command, observation, action_repeat,
-            residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
-            fade_at_rest,
-        )  # fmt: skip
+        _configure(self, env, core, base, **law)
         n = core.dim
         self.action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), dtype=np.float32)
         self.observation_space = _obs_space(self)
@@ -438,24 +432,7 @@ class ResidualVectorWrapper(VectorWrapper):
     gives env i seed s + i; later autoresets draw from a generator seeded with s.
     """
 
-    def __init__(
-        self,
-        env,
-        base="pd",
-        *,
-        scale=DEFAULT_SCALE,
-        observe_base_command=False,
-        action_repeat=None,
-        residual_penalty=0.0,
-        base_kwargs=None,
-        observation="full",
-        autoreset_mode="next_step",
-        residual_axes="path",
-        residual_frame="axes",
-        gate=False,
-        observe_axes=False,
-        fade_at_rest=False,
-    ):
+    def __init__(self, env, base="pd", *, autoreset_mode="next_step", **law):
         holder, core = core_of(env)
         if not hasattr(holder, "num_envs"):
             raise ValueError("env: a single env; use ResidualWrapper")
@@ -468,11 +445,7 @@ class ResidualVectorWrapper(VectorWrapper):
         self.metadata["autoreset_mode"] = (
             AutoresetMode.SAME_STEP if self.same_step else AutoresetMode.NEXT_STEP
         )
-        _configure(
-            self, env, core, base, scale, observe_base_command, observation, action_repeat,
-            residual_penalty, base_kwargs, residual_axes, residual_frame, gate, observe_axes,
-            fade_at_rest,
-        )  # fmt: skip
+        _configure(self, env, core, base, **law)
         n = core.dim
         self.single_action_space = spaces.Box(-1.0, 1.0, (self.n_actions,), dtype=np.float32)
         self.single_observation_space = _obs_space(self)

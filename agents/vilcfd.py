@@ -81,6 +81,7 @@ import numpy as np
 from .ilc import ILCContourController, LearningController, _positive
 from .parameters import BOOL, INT, Param
 from .qfilter import axis_plant_model, closed_loop, frequency_response, servo_loop_model
+from .records import attributes
 from .trial import TrialRecord
 
 # DOB bandwidth per plant (rad/s) for the default order 4: the largest on a 20 rad/s grid
@@ -335,15 +336,17 @@ class VILCFDController(ILCContourController):
     def hyperparameters(self) -> dict:
         return {
             **super().hyperparameters(),
-            "normal_gain_min": self.normal_gain_min,
-            "normal_gain_max": self.normal_gain_max,
+            **attributes(self, "normal_gain_min", "normal_gain_max"),
             "schedule_error_m": self.schedule_error_arg,
             "dob_bandwidth_rad_s": self.dob_bandwidth_arg,
-            "dob_order": self.dob_order,
-            "friction_compensation": self.friction_compensation,
-            "dob_limit_fraction": self.dob_limit_fraction,
-            "friction_smoothing": self.friction_smoothing,
-            "breakaway_ramp_s": self.breakaway_ramp_s,
+            **attributes(
+                self,
+                "dob_order",
+                "friction_compensation",
+                "dob_limit_fraction",
+                "friction_smoothing",
+                "breakaway_ramp_s",
+            ),
             "standstill_band_m": self.standstill_band_arg,
         }
 

@@ -24,10 +24,10 @@ on circles), so these rows measure generalisation. The scoring is
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import contour_env  # noqa: F401  (registers the env)
-from agents.rl.models import list_models
 from contour_env.app.benchmark.readme_tables import residual_markdown as format_markdown
 from contour_env.app.benchmark.residual import (  # noqa: F401  (this script's API)
     EFFORT_FLOOR_N,
@@ -60,17 +60,18 @@ def format_rows(rows: list[dict]) -> str:
 
 
 def main(argv=None) -> int:
+    # the --models option as residual_scorecard.py's (a script beside this one)
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from residual_scorecard import add_models_option, model_dirs
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", help="comma-separated model DIRs (default: the shipped agents)")
+    add_models_option(ap)
     ap.add_argument("--json", help="write the rows as JSON to this file")
     ap.add_argument(
         "--markdown", action="store_true", help="also print the rows as the README's table"
     )
     args = ap.parse_args(argv)
-    if args.models:
-        dirs = [Path(d) for d in args.models.split(",") if d]
-    else:
-        dirs = [Path(r["path"]) for r in list_models() if "error" not in r]
+    dirs = model_dirs(args.models)
     if not dirs:
         raise SystemExit("no model DIRs: pass --models or ship agents (scripts/train_agents.py)")
     rows = []

@@ -26,6 +26,18 @@ from contour_env.io import atomic_write_json
 SCORECARD = MODELS_DIR / "scorecard.json"
 
 
+def add_models_option(ap: argparse.ArgumentParser) -> None:
+    """``--models DIR[,DIR...]`` (read by :func:`model_dirs`); also residual_benchmark.py's."""
+    ap.add_argument("--models", help="comma-separated model DIRs (default: the shipped agents)")
+
+
+def model_dirs(models: str | None) -> list[Path]:
+    """The DIRs of ``--models``, or the shipped agents' (those that load)."""
+    if models:
+        return [Path(d) for d in models.split(",") if d]
+    return [Path(r["path"]) for r in list_models() if "error" not in r]
+
+
 def _r(x) -> str:
     return "—" if x is None else f"{x:.3f}"
 
@@ -51,17 +63,13 @@ def markdown(cards: list[dict]) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", help="comma-separated model DIRs (default: the shipped agents)")
+    add_models_option(ap)
     ap.add_argument("--out", default=str(SCORECARD), help="JSON file to write")
     ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
     ap.add_argument("--markdown", action="store_true", help="print the README table")
     args = ap.parse_args(argv)
-    if args.models:
-        dirs = [Path(d) for d in args.models.split(",") if d]
-    else:
-        dirs = [Path(r["path"]) for r in list_models() if "error" not in r]
     cards = []
-    for d in dirs:
+    for d in model_dirs(args.models):
         t0 = time.perf_counter()
 
         def show(row):

@@ -65,22 +65,9 @@ EFFORT_SLACK = 1.10
 def plant_paths(plant: str) -> list[tuple]:
     """(label, env) of the plant's tuning paths."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from tune_controllers import TUNING_PATHS
+    from tune_controllers import TUNING_PATHS, tuning_path_env
 
-    out = [
-        (
-            label,
-            gym.make(
-                ENV_ID,
-                plant=plant,
-                path=geometry,
-                feedrate_m_s=feed,
-                max_accel_m_s2=acc,
-                max_jerk_m_s3=jerk,
-            ),
-        )
-        for label, geometry, feed, acc, jerk in TUNING_PATHS[plant]
-    ]
+    out = [(label, tuning_path_env(plant, *row)) for label, *row in TUNING_PATHS[plant]]
     if plant == "linear-motor":
         out.append(("agents.rfnn.TUNING_PATH", tuning_env()))
     return out

@@ -31,6 +31,7 @@ import traceback
 
 import numpy as np
 
+from agents.records import attributes
 from contour_env.cases import FIVE_AXIS_CASES, all_case_names
 from contour_env.env.contouring_env import ContouringEnv
 from contour_env.env.vector_env import ContouringVectorEnv
@@ -89,11 +90,9 @@ class Counts:
 
     def to_dict(self) -> dict:
         return {
-            "steps": self.steps,
-            "episodes": self.episodes,
-            "nonfinite_obs": self.nonfinite_obs,
-            "nonfinite_reward": self.nonfinite_reward,
-            "nonfinite_info": self.nonfinite_info,
+            **attributes(
+                self, "steps", "episodes", "nonfinite_obs", "nonfinite_reward", "nonfinite_info"
+            ),
             "nonfinite_action_probes": self.probes,
             "autoreset_action_probes": self.autoreset_probes,
             "nonfinite_action_not_refused": self.probe_not_refused,

@@ -170,17 +170,23 @@ def constraints_hold(make, plant: str, screen: bool) -> tuple[bool, dict]:
     return ok, reports
 
 
+def tuning_path_env(plant: str, geometry, feed: float, acc: float, jerk: float):
+    """The env of one of the plant's tuning paths (a row of ``TUNING_PATHS`` after its
+    label)."""
+    return gym.make(
+        ENV_ID,
+        plant=plant,
+        path=geometry,
+        feedrate_m_s=feed,
+        max_accel_m_s2=acc,
+        max_jerk_m_s3=jerk,
+    )
+
+
 def run_paths(plant: str, make) -> list[dict]:
     out = []
     for label, geometry, feed, acc, jerk in TUNING_PATHS[plant]:
-        env = gym.make(
-            ENV_ID,
-            plant=plant,
-            path=geometry,
-            feedrate_m_s=feed,
-            max_accel_m_s2=acc,
-            max_jerk_m_s3=jerk,
-        )
+        env = tuning_path_env(plant, geometry, feed, acc, jerk)
         m = score(run_episode(env, make().bind(env)))
         out.append(
             {

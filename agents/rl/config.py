@@ -41,6 +41,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from agents.records import attributes
 from agents.registry import controller_names
 from agents.residual import DEFAULT_SCALE, OBSERVATIONS, RESIDUAL_AXES
 from agents.residual_law import RESIDUAL_FRAMES
@@ -170,7 +171,8 @@ class TrainConfig:
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        fix = object.__setattr__
+        """Sequences as tuples, then every field checked (``ValueError`` naming the field; a
+        missing G-code file ``FileNotFoundError``), the G-code files' digests filled in."""
         for key in (
             "cases",
             "gcode",
@@ -180,7 +182,16 @@ class TrainConfig:
             "net_arch",
             "circle_radius_m",
         ):
-            fix(self, key, tuple(getattr(self, key)))
+            object.__setattr__(self, key, tuple(getattr(self, key)))
+        self._check_choices()
+        self._check_gcode_and_plant()
+        self._check_counts()
+        self._check_numbers()
+        self._check_paths()
+
+    def _check_choices(self) -> None:
+        """The named choices (observation, algorithm, base, frame, ...), the switches, and a
+        task to train on."""
         if self.observation not in OBSERVATIONS:
             raise ValueError(
                 f"observation: must be one of {', '.join(OBSERVATIONS)}, got {self.observation!r}"
@@ -214,6 +225,10 @@ class TrainConfig:
         for key in ("gate", "observe_axes", "fade_at_rest"):
             if not isinstance(getattr(self, key), bool):
                 raise ValueError(f"{key}: expected true or false, got {getattr(self, key)!r}")
+
+    def _check_gcode_and_plant(self) -> None:
+        """G-code files (a plant given, none held out, each read for its digest) and one plant
+        for every task."""
         if self.gcode and not self.plant:
             raise ValueError("plant: G-code training paths need --plant")
         for f in self.gcode:
@@ -223,7 +238,7 @@ class TrainConfig:
             for f in self.gcode:
                 if not Path(f).is_file():
                     raise FileNotFoundError(f"gcode: no such file {f!r}")
-            fix(self, "gcode_sha256", tuple(_file_digest(f) for f in self.gcode))
+            object.__setattr__(self, "gcode_sha256", tuple(_file_digest(f) for f in self.gcode))
         from contour_env.cases import get_case
 
         plants = {get_case(c).plant for c in self.cases}
@@ -233,6 +248,10 @@ class TrainConfig:
             raise ValueError(
                 f"cases: an agent is trained for one plant; these cases use {sorted(plants)}"
             )
+
+    def _check_counts(self) -> None:
+        """The integer settings, the time budget and evaluation period (s), and the
+        off-policy update options."""
         _int(self, "timesteps", 1)
         _int(self, "seed", 0)
         _int(self, "buffer_size", 1)
@@ -242,16 +261,8 @@ class TrainConfig:
         _int(self, "keep_checkpoints", 1)
         _int(self, "validation_paths", 0)
         _int(self, "torch_threads", 1)
-        tb = self.time_budget_s
-        if tb is not None and (
-            isinstance(tb, bool) or not isinstance(tb, (int, float)) or not (0 < tb < math.inf)
-        ):
-            raise ValueError(f"time_budget_s: a finite number of seconds > 0 or None, got {tb!r}")
-        es = self.eval_every_s
-        if es is not None and (
-            isinstance(es, bool) or not isinstance(es, (int, float)) or not (0 < es < math.inf)
-        ):
-            raise ValueError(f"eval_every_s: a finite number of seconds > 0 or None, got {es!r}")
+        _seconds_or_none(self, "time_budget_s")
+        _seconds_or_none(self, "eval_every_s")
         gs = self.gradient_steps
         if gs is not None and (
             isinstance(gs, bool) or not isinstance(gs, int) or (gs < 1 and gs != -1)
@@ -269,6 +280,9 @@ class TrainConfig:
         ):  # fmt: skip
             if getattr(self, key) is not None:
                 _int(self, key, 1)
+
+    def _check_numbers(self) -> None:
+        """The real-valued settings in their ranges (stored as floats)."""
         for key, lo, hi in (
             ("scale", 0.0, 2.0),
             ("randomize_plant", 0.0, 0.99),
@@ -283,6 +297,9 @@ class TrainConfig:
         if self.learning_rate_final is not None:
             _num(self, "learning_rate_final", 0.0, self.learning_rate, open_low=True)
         _num(self, "spline_size_m", 0.0, 10.0, open_low=True)
+
+    def _check_paths(self) -> None:
+        """The path variety, the families, the circle radii and the network's layers."""
         bad = [v for v in self.path_variety if v not in PATH_VARIETY]
         if bad:
             raise ValueError(
@@ -361,19 +378,12 @@ class TrainConfig:
         return {"w_contour": self.w_contour, "w_lag": self.w_lag, "w_effort": self.w_effort}
 
     def wrapper_kwargs(self) -> dict:
-        return {
-            "base": self.base,
-            "scale": self.scale,
-            "observe_base_command": self.observe_base_command,
-            "observation": self.observation,
-            "action_repeat": self.action_repeat,
-            "residual_penalty": self.residual_penalty,
-            "residual_axes": self.residual_axes,
-            "residual_frame": self.residual_frame,
-            "gate": self.gate,
-            "observe_axes": self.observe_axes,
-            "fade_at_rest": self.fade_at_rest,
-        }
+        """Keyword arguments of the residual wrappers (:mod:`agents.residual`)."""
+        return attributes(
+            self, "base", "scale", "observe_base_command", "observation", "action_repeat",
+            "residual_penalty", "residual_axes", "residual_frame", "gate", "observe_axes",
+            "fade_at_rest",
+        )  # fmt: skip
 
     # --- JSON ------------------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -424,6 +434,14 @@ def _int(cfg, key, lo):
     v = getattr(cfg, key)
     if isinstance(v, bool) or not isinstance(v, int) or v < lo:
         raise ValueError(f"{key}: expected an integer >= {lo}, got {v!r}")
+
+
+def _seconds_or_none(cfg, key):
+    v = getattr(cfg, key)
+    if v is not None and (
+        isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < v < math.inf)
+    ):
+        raise ValueError(f"{key}: a finite number of seconds > 0 or None, got {v!r}")
 
 
 def _num(cfg, key, lo, hi, open_low=False):

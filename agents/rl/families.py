@@ -39,6 +39,8 @@ from contour_env.plants import Plant
 from contour_env.plants.catalog import PLANT_ALIASES
 from contour_env.plants.randomize import randomized
 
+from ..records import attributes
+
 FAMILIES = ("polylines", "arcs", "circles", "splines", "programs", "helices")
 THREE_AXIS_FAMILIES = ("helices",)
 # training path seeds are drawn in [0, VALIDATION_SEED_BASE); validation path k has seed
@@ -94,48 +96,15 @@ class PlantRanges:
 # centripetal, a 2 m/s², j 40 m/s³); jee-circle3d (r 50 mm, 0.167 m/s); lm-circle3d (r 0.5 m
 # arc, 0.05 m/s, a 0.5 m/s², j 10 m/s³; 0.1 ms servo: episodes kept short); sharp-corner and
 # corner-blend (30 mm legs, 0.02 m/s, a 0.5 m/s², j 10 m/s³, G64 P0.01 mm)
-PLANT_RANGES = {
-    "hsm2": PlantRanges(
-        size_m=(0.02, 0.2),
-        feed_m_s=(0.05, 0.4),
-        max_accel_m_s2=2.0,
-        max_jerk_m_s3=40.0,
-        max_centripetal_m_s2=2.7,
-        blend_tolerance_m=(10e-6, 100e-6),
-        travel_m=0.25,
-        max_path_time_s=4.0,
-    ),
-    "jee-triaxial": PlantRanges(
-        size_m=(0.01, 0.1),
-        feed_m_s=(0.03, 0.25),
-        max_accel_m_s2=2.0,
-        max_jerk_m_s3=40.0,
-        max_centripetal_m_s2=1.0,
-        blend_tolerance_m=(10e-6, 50e-6),
-        travel_m=0.15,
-        max_path_time_s=4.0,
-    ),
-    "linear-motor": PlantRanges(
-        size_m=(0.02, 0.3),
-        feed_m_s=(0.02, 0.15),
-        max_accel_m_s2=0.5,
-        max_jerk_m_s3=10.0,
-        max_centripetal_m_s2=0.5,
-        blend_tolerance_m=(10e-6, 50e-6),
-        travel_m=0.5,
-        max_path_time_s=3.0,
-    ),
-    "friction-table": PlantRanges(
-        size_m=(0.01, 0.06),
-        feed_m_s=(0.005, 0.04),
-        max_accel_m_s2=0.5,
-        max_jerk_m_s3=10.0,
-        max_centripetal_m_s2=0.1,
-        blend_tolerance_m=(5e-6, 50e-6),
-        travel_m=0.1,
-        max_path_time_s=6.0,
-    ),
+_RANGES_TABLE = {
+    # plant: (size_m, feed_m_s, max_accel_m_s2, max_jerk_m_s3, max_centripetal_m_s2,
+    #         blend_tolerance_m, travel_m, max_path_time_s), the fields of PlantRanges
+    "hsm2": ((0.02, 0.2), (0.05, 0.4), 2.0, 40.0, 2.7, (10e-6, 100e-6), 0.25, 4.0),
+    "jee-triaxial": ((0.01, 0.1), (0.03, 0.25), 2.0, 40.0, 1.0, (10e-6, 50e-6), 0.15, 4.0),
+    "linear-motor": ((0.02, 0.3), (0.02, 0.15), 0.5, 10.0, 0.5, (10e-6, 50e-6), 0.5, 3.0),
+    "friction-table": ((0.01, 0.06), (0.005, 0.04), 0.5, 10.0, 0.1, (5e-6, 50e-6), 0.1, 6.0),
 }
+PLANT_RANGES = {plant: PlantRanges(*row) for plant, row in _RANGES_TABLE.items()}
 
 
 @dataclass(frozen=True)
@@ -161,15 +130,8 @@ class GeneratedPath:
 
     def env_kwargs(self) -> dict:
         """Keyword arguments of ``gym.make(ENV_ID, ...)`` (the disturbance phase random)."""
-        kw = {
-            "plant": self.plant,
-            "path": self.path,
-            "feedrate_m_s": self.feedrate_m_s,
-            "max_accel_m_s2": self.max_accel_m_s2,
-            "max_jerk_m_s3": self.max_jerk_m_s3,
-            "settle_time_s": self.settle_time_s,
-            "disturbance_phase": "random",
-        }
+        kw = attributes(self, "plant", "path", "feedrate_m_s", "max_accel_m_s2", "max_jerk_m_s3")
+        kw.update(settle_time_s=self.settle_time_s, disturbance_phase="random")
         if self.plant_params is not None:
             kw["plant_params"] = list(self.plant_params)
         return kw
@@ -177,12 +139,9 @@ class GeneratedPath:
     def describe(self) -> dict:
         """A JSON-able record: family, plant, seed, feed and the drawn shape parameters."""
         return {
-            "family": self.family,
-            "plant": self.plant,
-            "seed": self.seed,
-            "feedrate_m_s": self.feedrate_m_s,
-            "settle_time_s": self.settle_time_s,
-            "reset_seed": self.reset_seed,
+            **attributes(
+                self, "family", "plant", "seed", "feedrate_m_s", "settle_time_s", "reset_seed"
+            ),
             **self.params,
         }
 

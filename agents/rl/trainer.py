@@ -45,10 +45,13 @@ import math
 import os
 import shutil
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
 
 from contour_env import ENV_ID
 from contour_env.evaluation import evaluate
@@ -224,14 +227,82 @@ def plot_validation(record: dict, algo: str, plant: str, out) -> None:
 def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool = True, log=print):
     """Train (or, with ``resume``, continue) and write ``out_dir``; returns a summary dict."""
     import torch
-    from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     cfg = config
     run_t0 = time.perf_counter()  # the run's wall clock (the evaluation share's denominator)
     check_output_dir(out_dir)  # a folder under a file, no permission: say so before training
     out = Path(out_dir)
+    ckpt, curve, val_curve = _open_run_dir(cfg, out, resume)
+
+    torch.set_num_threads(cfg.torch_threads)
+    set_random_seed(cfg.seed)
+    sampler = TaskSampler(cfg, cfg.seed)
+    raw, venv = _build_envs(cfg, sampler, ckpt)
+    model = _build_model(cfg, out, raw, venv, ckpt, log)
+    rate = _anneal_learning_rate(cfg, model)
+    t_scoring = time.perf_counter()
+    evaluator = Evaluator(sampler, cfg) if sampler.nominal_tasks() else None
+    validator = Validator(cfg) if cfg.validation_paths else None
+    base_scoring_s = time.perf_counter() - t_scoring  # the base on every scored part
+    best = BestKeeper(out) if validator is not None else None
+    _log_start(log, cfg, raw, evaluator, validator)
+    run = _Run(
+        cfg, out, log, run_t0, raw, venv, model, curve, val_curve, evaluator, validator, best
+    )
+
+    hooks = _Hooks(run, rate, progress)
+    log(expected_time_line(cfg, None, run.train_s(), model.num_timesteps, measured=False))
+    t0 = time.perf_counter()
+    remaining = cfg.timesteps - model.num_timesteps
+    model.learn(
+        total_timesteps=remaining,
+        callback=hooks,
+        reset_num_timesteps=ckpt is None,
+        tb_log_name=cfg.algo,
+        progress_bar=False,
+    )
+    wall = time.perf_counter() - t0
+    ts = run.train_s()
+    final_rms, final_eval_s = run.score_final(ts)
+    final_dir = run.save_final()
+
+    # this session's wall time and the part of it spent scoring (the base at the start, the
+    # periodic and final evaluations and validations)
+    run_wall = time.perf_counter() - run_t0
+    eval_s = base_scoring_s + run.clock["eval"] + final_eval_s
+    summary = {
+        "out": str(out),
+        "timesteps": int(model.num_timesteps),
+        "wall_s": wall,
+        "train_s": ts,
+        "run_wall_s": run_wall,
+        "eval_s": eval_s,
+        "eval_share": eval_s / run_wall if run_wall > 0 else 0.0,
+        "time_to_target": run.watch.record(),
+        "base_rms_contour_error_um": evaluator.base_rms if evaluator is not None else None,
+        "final_rms_contour_error_um": final_rms,
+        "curve": curve,
+    }
+    summary.update(_write_kept_model(out, cfg, final_dir, best, validator, val_curve, summary))
+    if evaluator is not None:
+        run.write_curve(complete=True)
+        title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or summary['gcode'])}"
+        plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")
+    _remove_partial_folders(out)
+    summary.pop("gcode")
+    log(
+        f"wall time {run_wall:.1f} s, of which evaluations {eval_s:.1f} s "
+        f"({summary['eval_share']:.1%}: the base scored at the start {base_scoring_s:.1f} s, "
+        f"periodic {run.clock['eval']:.1f} s, final {final_eval_s:.1f} s)"
+    )
+    return summary
+
+
+def _open_run_dir(cfg: TrainConfig, out: Path, resume: bool):
+    """Check ``out`` for a new run (empty of one) or a resumed one (the same configuration, a
+    checkpoint short of ``cfg.timesteps``), create it and write ``config.json``; returns the
+    checkpoint to resume from (None for a new run) and its learning and validation curves."""
     ckpt_root = out / "checkpoints"
     ckpt = None
     curve: list[dict] = []
@@ -264,10 +335,14 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         )
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "config.json", cfg.to_dict())
+    return ckpt, curve, val_curve
 
-    torch.set_num_threads(cfg.torch_threads)
-    set_random_seed(cfg.seed)
-    sampler = TaskSampler(cfg, cfg.seed)
+
+def _build_envs(cfg: TrainConfig, sampler: TaskSampler, ckpt):
+    """The training envs: the raw residual vector env and the monitored, normalised one the
+    model trains on (the normalisation statistics of the checkpoint ``ckpt`` when resuming)."""
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
     raw = ResidualTrainVecEnv(
         sampler, cfg.num_envs, cfg.wrapper_kwargs(), seed=cfg.seed + 1,
         reward_scale=cfg.reward_scale,
@@ -280,6 +355,12 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         venv = VecNormalize(
             monitored, norm_obs=True, norm_reward=False, clip_obs=CLIP_OBS, gamma=cfg.gamma
         )
+    return raw, venv
+
+
+def _build_model(cfg: TrainConfig, out: Path, raw, venv, ckpt, log):
+    """A new sb3 model on ``venv``, or the checkpoint's (with its replay buffer) when
+    resuming; TensorBoard logs in ``out/tb`` when tensorboard is installed."""
     tb = str(out / "tb") if tensorboard_available() else None
     if tb is None:
         log("TensorBoard logs off: tensorboard is not installed (pip install tensorboard)")
@@ -300,304 +381,329 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
             tensorboard_log=tb,
             **_model_kwargs(cfg, n_actions),
         )
+    return model
+
+
+def _anneal_learning_rate(cfg: TrainConfig, model):
+    """The annealed learning rate set on ``model`` (None: a constant one)."""
     rate = None
     if cfg.learning_rate_final is not None:
         rate = AnnealedRate(cfg.learning_rate, cfg.learning_rate_final)
         model.learning_rate = rate
         model.lr_schedule = rate
-    t_scoring = time.perf_counter()
-    evaluator = Evaluator(sampler, cfg) if sampler.nominal_tasks() else None
-    validator = Validator(cfg) if cfg.validation_paths else None
-    base_scoring_s = time.perf_counter() - t_scoring  # the base on every scored part
-    best = BestKeeper(out) if validator is not None else None
-    _log_start(log, cfg, raw, evaluator, validator)
+    return rate
 
-    def meta_now():
-        return _metadata(cfg, raw, model.num_timesteps)
 
-    def write_files(folder: Path, with_buffer: bool) -> None:
+def _remove_partial_folders(out: Path) -> None:
+    """Folders a checkpoint or best model left half-written (``.tmp-*``)."""
+    for root in (out / "checkpoints", out / "best"):
+        for tmp in root.glob(".tmp-*"):
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+@dataclass(eq=False)
+class _Run:
+    """One training session: the model and its envs, the learning and validation curves,
+    the clocks, and what scores the model and writes its files.
+
+    ``run_t0``: the session's start (``time.perf_counter``); ``curve``, ``val_curve``: the
+    learning and validation curves so far (a resumed run's); ``evaluator`` (training tasks),
+    ``validator`` and ``best`` (validation paths, keep-best): None when not used. The
+    training clock starts when the run is made."""
+
+    cfg: TrainConfig
+    out: Path
+    log: Callable
+    run_t0: float
+    raw: ResidualTrainVecEnv
+    venv: object  # sb3's VecNormalize
+    model: object  # the sb3 model
+    curve: list
+    val_curve: list
+    evaluator: Evaluator | None
+    validator: Validator | None
+    best: BestKeeper | None
+
+    def __post_init__(self):
+        self.ckpt_root = self.out / "checkpoints"
+        curve, val_curve = self.curve, self.val_curve
+        # training wall time (s) without the evaluations and validations, carried over a
+        # resume: the curves' "train_s", what time-to-target figures read
+        self.clock = {
+            "start": time.perf_counter(),
+            "eval": 0.0,
+            "prior": max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0),
+            # wall time (s) of the run so far, evaluations included, carried over a resume:
+            # the curves' "wall_s", what the time-to-target table reads
+            # (scripts/time_to_target.py)
+            "prior_wall": max((pt.get("wall_s", 0.0) for pt in curve + val_curve), default=0.0),
+        }
+        self.watch = TargetWatch(
+            self.evaluator.base_rms if self.evaluator is not None else None, curve, val_curve
+        )
+
+    def meta_now(self) -> dict:
+        return _metadata(self.cfg, self.raw, self.model.num_timesteps)
+
+    def wall_s(self) -> float:
+        return self.clock["prior_wall"] + (time.perf_counter() - self.run_t0)
+
+    def train_s(self) -> float:
+        clock = self.clock
+        return clock["prior"] + (time.perf_counter() - clock["start"] - clock["eval"])
+
+    def write_files(self, folder: Path, with_buffer: bool) -> None:
+        model, venv = self.model, self.venv
         model.save(folder / "model.zip")
         venv.save(str(folder / "vecnormalize.pkl"))
         atomic_write_json(folder / "normalization.json", normalizer_of(venv).to_dict())
-        atomic_write_json(folder / "agent.json", meta_now())
-        if with_buffer and not cfg.on_policy:
+        atomic_write_json(folder / "agent.json", self.meta_now())
+        if with_buffer and not self.cfg.on_policy:
             model.save_replay_buffer(folder / "replay_buffer.pkl")
         atomic_write_json(
             folder / "state.json",
             {
                 "timesteps": int(model.num_timesteps),
-                "curve": curve,
-                "validation_curve": val_curve,
+                "curve": self.curve,
+                "validation_curve": self.val_curve,
             },
         )
 
-    def validate(ts: float) -> None:
+    def checkpoint(self, timesteps: int) -> None:
+        """A periodic checkpoint (with the replay buffer) at ``timesteps``."""
+        write_checkpoint(
+            self.ckpt_root,
+            timesteps,
+            lambda d: self.write_files(d, True),
+            self.cfg.keep_checkpoints,
+        )
+
+    def write_curve(self, complete: bool) -> None:
+        atomic_write_json(
+            self.out / "learning_curve.json",
+            {
+                "base": self.cfg.base,
+                "base_rms_contour_error_um": self.evaluator.base_rms,
+                "curve": self.curve,
+                "complete": complete,
+            },
+        )
+
+    def evaluate(self, ts: float) -> float:
+        """Score the policy on the training tasks (``ts``: the training time so far) and add
+        the point to the learning curve; returns the mean RMS contour error (µm)."""
+        rms = self.evaluator(self.meta_now(), self.model, normalizer_of(self.venv))
+        point = {"timesteps": int(self.model.num_timesteps), "rms_contour_error_um": rms}
+        self.curve.append({**point, "train_s": ts})
+        return rms
+
+    def validate(self, ts: float) -> None:
         """Score the policy on the validation paths (``ts``: the training time so far); keep
         it if it is the best so far."""
-        t = int(model.num_timesteps)
-        rms, per_path = validator(meta_now(), model, normalizer_of(venv))
+        validator, best = self.validator, self.best
+        t = int(self.model.num_timesteps)
+        rms, per_path = validator(self.meta_now(), self.model, normalizer_of(self.venv))
         point = curve_point(t, rms, per_path, validator)
         point["train_s"] = ts
-        val_curve.append(point)
+        self.val_curve.append(point)
         score, eligible = validator.judge(per_path)
-        if best.offer(t, rms, score, eligible, lambda d: write_files(d, False)):
-            log(
+        if best.offer(t, rms, score, eligible, lambda d: self.write_files(d, False)):
+            self.log(
                 f"validation: new best {rms:.4g} µm, {score:.3f}x the base on average, at {t} "
                 "timesteps"
             )
         # the curve so far, readable while the run goes on (rewritten at the end)
         atomic_write_json(
-            out / "validation_curve.json", validation_record(validator, cfg.base, val_curve, best)
+            self.out / "validation_curve.json",
+            validation_record(validator, self.cfg.base, self.val_curve, best),
         )
 
-    # training wall time (s) without the evaluations and validations, carried over a resume:
-    # the curves' "train_s", what time-to-target figures read
-    clock = {
-        "start": time.perf_counter(),
-        "eval": 0.0,
-        "prior": max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0),
-        # wall time (s) of the run so far, evaluations included, carried over a resume: the
-        # curves' "wall_s", what the time-to-target table reads (scripts/time_to_target.py)
-        "prior_wall": max((pt.get("wall_s", 0.0) for pt in curve + val_curve), default=0.0),
-    }
-    watch = TargetWatch(evaluator.base_rms if evaluator is not None else None, curve, val_curve)
+    def score_final(self, ts: float):
+        """Score the final model (the last periodic evaluation may precede the last gradient
+        steps) at ``ts`` s of training; returns its RMS contour error on the training tasks
+        (None without them) and the seconds the scoring took."""
+        t_final = time.perf_counter()
+        curve, val_curve, num_timesteps = self.curve, self.val_curve, self.model.num_timesteps
+        final_rms = None
+        if self.evaluator is not None:
+            if curve and curve[-1]["timesteps"] == num_timesteps:
+                curve.pop()
+            final_rms = self.evaluate(ts)
+        if self.validator is not None and (
+            not val_curve or val_curve[-1]["timesteps"] < num_timesteps
+        ):
+            # the final model, unless a periodic validation saw these timesteps (each point of
+            # the curve is the score of the model kept for it)
+            self.validate(ts)
+        final_eval_s = time.perf_counter() - t_final
+        if self.evaluator is not None:
+            curve[-1]["wall_s"] = self.wall_s()
+        if self.validator is not None and val_curve and "wall_s" not in val_curve[-1]:
+            val_curve[-1]["wall_s"] = self.wall_s()
+        for msg in self.watch.update():
+            self.log(msg)
+        return final_rms, final_eval_s
 
-    def wall_s() -> float:
-        return clock["prior_wall"] + (time.perf_counter() - run_t0)
+    def save_final(self) -> Path:
+        """The last checkpoint and ``final/`` (the final model, its statistics and metadata);
+        closes the envs; returns ``final/``."""
+        model, venv = self.model, self.venv
+        self.checkpoint(model.num_timesteps)
+        final_dir = self.out / "final"
+        for name, save in (
+            ("model.zip", lambda p: model.save(p)),
+            ("vecnormalize.pkl", lambda p: venv.save(p)),
+        ):
+            atomic_save(final_dir / name, save)
+        atomic_write_json(final_dir / "normalization.json", normalizer_of(venv).to_dict())
+        atomic_write_json(final_dir / "agent.json", self.meta_now())
+        venv.close()
+        return final_dir
 
-    def write_curve(complete: bool) -> None:
-        atomic_write_json(
-            out / "learning_curve.json",
-            {
-                "base": cfg.base,
-                "base_rms_contour_error_um": evaluator.base_rms,
-                "curve": curve,
-                "complete": complete,
-            },
-        )
 
-    def train_s() -> float:
-        return clock["prior"] + (time.perf_counter() - clock["start"] - clock["eval"])
+class _Hooks(BaseCallback):
+    """sb3's callback of a training run: the progress bar, the time budget, the annealed
+    learning rate, the periodic evaluations and checkpoints."""
 
-    class Hooks(BaseCallback):
-        def __init__(self):
-            super().__init__()
-            self.bar = None
-            self.by_time = False
-            last = max((pt["timesteps"] for pt in curve + val_curve), default=0)
-            self.next_eval = last + cfg.eval_every()
-            # by training time as well (eval_every_s), counted on from the last point
-            last_s = max((pt.get("train_s", 0.0) for pt in curve + val_curve), default=0.0)
-            self.next_eval_s = None if cfg.eval_every_s is None else last_s + cfg.eval_every_s
-            self.next_ckpt = model.num_timesteps + cfg.checkpoint_every()
-            self.ckpt_due = False
-            # the expected time, said again at the first evaluation after EXPECT_AFTER_S s of
-            # training, from this run's own rate and evaluation time
-            self.expect_at = train_s() + EXPECT_AFTER_S
-            self.start_steps = model.num_timesteps
-            self.start_s = train_s()
+    def __init__(self, run: _Run, rate, progress: bool):
+        super().__init__()
+        self.run = run
+        self.rate = rate
+        self.progress = progress
+        cfg, points = run.cfg, run.curve + run.val_curve
+        self.bar = None
+        self.by_time = False
+        last = max((pt["timesteps"] for pt in points), default=0)
+        self.next_eval = last + cfg.eval_every()
+        # by training time as well (eval_every_s), counted on from the last point
+        last_s = max((pt.get("train_s", 0.0) for pt in points), default=0.0)
+        self.next_eval_s = None if cfg.eval_every_s is None else last_s + cfg.eval_every_s
+        self.next_ckpt = run.model.num_timesteps + cfg.checkpoint_every()
+        self.ckpt_due = False
+        # the expected time, said again at the first evaluation after EXPECT_AFTER_S s of
+        # training, from this run's own rate and evaluation time
+        self.expect_at = run.train_s() + EXPECT_AFTER_S
+        self.start_steps = run.model.num_timesteps
+        self.start_s = run.train_s()
 
-        def say(self, msg: str) -> None:
-            """``log`` without breaking the progress bar's line."""
-            if self.bar is None:
-                log(msg)
+    def say(self, msg: str) -> None:
+        """``log`` without breaking the progress bar's line."""
+        if self.bar is None:
+            self.run.log(msg)
+        else:
+            from tqdm import tqdm
+
+            with tqdm.external_write_mode():
+                self.run.log(msg)
+
+    def _on_training_start(self):
+        if self.progress:
+            from tqdm import tqdm
+
+            cfg = self.run.cfg
+            self.by_time = budget_ends_first(cfg)
+            if self.by_time:  # the time budget ends the run: a bar of training seconds
+                self.bar = tqdm(
+                    total=round(cfg.time_budget_s),
+                    initial=min(round(self.run.train_s()), round(cfg.time_budget_s)),
+                    unit="s",
+                    desc="train (s of training)",
+                )
             else:
-                from tqdm import tqdm
-
-                with tqdm.external_write_mode():
-                    log(msg)
-
-        def _on_training_start(self):
-            if progress:
-                from tqdm import tqdm
-
-                self.by_time = budget_ends_first(cfg)
-                if self.by_time:  # the time budget ends the run: a bar of training seconds
-                    self.bar = tqdm(
-                        total=round(cfg.time_budget_s),
-                        initial=min(round(train_s()), round(cfg.time_budget_s)),
-                        unit="s",
-                        desc="train (s of training)",
-                    )
-                else:
-                    self.bar = tqdm(
-                        total=cfg.timesteps, initial=self.num_timesteps, unit="step", desc="train"
-                    )
-
-        def _evaluate(self):
-            shown = {}
-            t_in = time.perf_counter()
-            ts = train_s()
-            if evaluator is not None:
-                rms = evaluator(meta_now(), model, normalizer_of(venv))
-                point = {"timesteps": int(self.num_timesteps), "rms_contour_error_um": rms}
-                curve.append({**point, "train_s": ts})
-                self.logger.record("eval/rms_contour_error_um", rms)
-                shown.update(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
-            if validator is not None:
-                validate(ts)
-                val = val_curve[-1]["rms_contour_error_um"]
-                if val is not None:  # None: a validation path not completed
-                    self.logger.record("eval/validation_rms_contour_error_um", val)
-                shown.update(
-                    val_ratio=f"{val_curve[-1]['score'] or float('inf'):.3g}",
-                    kept="base" if best.kept_base else f"{best.score:.3g}",
+                self.bar = tqdm(
+                    total=cfg.timesteps, initial=self.num_timesteps, unit="step", desc="train"
                 )
-            # the wall time at which this evaluation's verdict was known (evaluations included)
-            now_wall = wall_s()
-            if evaluator is not None:
-                curve[-1]["wall_s"] = now_wall
-            if validator is not None:
-                val_curve[-1]["wall_s"] = now_wall
-            for msg in watch.update():
-                self.say(msg)
-            shown.update(watch.postfix())
-            if self.expect_at is not None and ts >= min(self.expect_at, cfg.time_budget_s or 1e300):
-                self.expect_at = None
-                rate_now = (self.num_timesteps - self.start_steps) / max(ts - self.start_s, 1e-9)
-                self.say(
-                    expected_time_line(
-                        cfg, rate_now, ts, self.num_timesteps, measured=True,
-                        eval_s=time.perf_counter() - t_in,
-                    )
-                )  # fmt: skip
-            if self.bar is not None:
-                self.bar.set_postfix(**shown)
-            if evaluator is not None:
-                # the curve so far, so that an interrupted or long run can be read while it
-                # runs (rewritten with the final point at the end)
-                write_curve(complete=False)
-            clock["eval"] += time.perf_counter() - t_in
 
-        def _on_step(self) -> bool:
-            if self.bar is not None:
-                done = min(round(train_s()), self.bar.total) if self.by_time else self.num_timesteps
-                if done > self.bar.n:
-                    self.bar.update(done - self.bar.n)
-            now_s = train_s()
-            if cfg.time_budget_s is not None and now_s >= cfg.time_budget_s:
-                return False  # sb3 ends learn(); the run is finished as at its last step
-            if rate is not None:
-                rate.at(
-                    now_s / cfg.time_budget_s
-                    if cfg.time_budget_s is not None
-                    else self.num_timesteps / cfg.timesteps
-                )
-            by_time = self.next_eval_s is not None and now_s >= self.next_eval_s
-            if self.num_timesteps >= self.next_eval or by_time:
-                self._evaluate()
-                while self.next_eval <= self.num_timesteps:
-                    self.next_eval += cfg.eval_every()
-                if self.next_eval_s is not None:
-                    self.next_eval_s = train_s() + cfg.eval_every_s
-            if self.num_timesteps >= self.next_ckpt:
-                if cfg.on_policy:
-                    self._checkpoint()
-                else:
-                    # sb3's off-policy loop calls on_step before it stores the step's
-                    # transition: a checkpoint written now would lack it (one transition lost
-                    # per resume). Written at the end of the rollout, after the store.
-                    self.ckpt_due = True
-            return True
-
-        def _on_rollout_end(self) -> None:
-            if self.ckpt_due:
-                self._checkpoint()
-
-        def _checkpoint(self) -> None:
-            write_checkpoint(
-                ckpt_root,
-                self.num_timesteps,
-                lambda d: write_files(d, True),
-                cfg.keep_checkpoints,
+    def _evaluate(self):
+        run, cfg = self.run, self.run.cfg
+        evaluator, validator, val_curve = run.evaluator, run.validator, run.val_curve
+        shown = {}
+        t_in = time.perf_counter()
+        ts = run.train_s()
+        if evaluator is not None:
+            rms = run.evaluate(ts)
+            self.logger.record("eval/rms_contour_error_um", rms)
+            shown.update(rms_um=f"{rms:.3g}", base_um=f"{evaluator.base_rms:.3g}")
+        if validator is not None:
+            run.validate(ts)
+            val = val_curve[-1]["rms_contour_error_um"]
+            if val is not None:  # None: a validation path not completed
+                self.logger.record("eval/validation_rms_contour_error_um", val)
+            shown.update(
+                val_ratio=f"{val_curve[-1]['score'] or float('inf'):.3g}",
+                kept="base" if run.best.kept_base else f"{run.best.score:.3g}",
             )
-            self.ckpt_due = False
-            while self.next_ckpt <= self.num_timesteps:
-                self.next_ckpt += cfg.checkpoint_every()
+        # the wall time at which this evaluation's verdict was known (evaluations included)
+        now_wall = run.wall_s()
+        if evaluator is not None:
+            run.curve[-1]["wall_s"] = now_wall
+        if validator is not None:
+            val_curve[-1]["wall_s"] = now_wall
+        for msg in run.watch.update():
+            self.say(msg)
+        shown.update(run.watch.postfix())
+        if self.expect_at is not None and ts >= min(self.expect_at, cfg.time_budget_s or 1e300):
+            self.expect_at = None
+            rate_now = (self.num_timesteps - self.start_steps) / max(ts - self.start_s, 1e-9)
+            self.say(
+                expected_time_line(
+                    cfg, rate_now, ts, self.num_timesteps, measured=True,
+                    eval_s=time.perf_counter() - t_in,
+                )
+            )  # fmt: skip
+        if self.bar is not None:
+            self.bar.set_postfix(**shown)
+        if evaluator is not None:
+            # the curve so far, so that an interrupted or long run can be read while it runs
+            # (rewritten with the final point at the end)
+            run.write_curve(complete=False)
+        run.clock["eval"] += time.perf_counter() - t_in
 
-        def _on_training_end(self):
-            if self.bar is not None:
-                self.bar.close()
+    def _on_step(self) -> bool:
+        run, cfg = self.run, self.run.cfg
+        if self.bar is not None:
+            done = min(round(run.train_s()), self.bar.total) if self.by_time else self.num_timesteps
+            if done > self.bar.n:
+                self.bar.update(done - self.bar.n)
+        now_s = run.train_s()
+        if cfg.time_budget_s is not None and now_s >= cfg.time_budget_s:
+            return False  # sb3 ends learn(); the run is finished as at its last step
+        if self.rate is not None:
+            self.rate.at(
+                now_s / cfg.time_budget_s
+                if cfg.time_budget_s is not None
+                else self.num_timesteps / cfg.timesteps
+            )
+        by_time = self.next_eval_s is not None and now_s >= self.next_eval_s
+        if self.num_timesteps >= self.next_eval or by_time:
+            self._evaluate()
+            while self.next_eval <= self.num_timesteps:
+                self.next_eval += cfg.eval_every()
+            if self.next_eval_s is not None:
+                self.next_eval_s = run.train_s() + cfg.eval_every_s
+        if self.num_timesteps >= self.next_ckpt:
+            if cfg.on_policy:
+                self._checkpoint()
+            else:
+                # sb3's off-policy loop calls on_step before it stores the step's
+                # transition: a checkpoint written now would lack it (one transition lost
+                # per resume). Written at the end of the rollout, after the store.
+                self.ckpt_due = True
+        return True
 
-    hooks = Hooks()
-    log(expected_time_line(cfg, None, train_s(), model.num_timesteps, measured=False))
-    t0 = time.perf_counter()
-    remaining = cfg.timesteps - model.num_timesteps
-    model.learn(
-        total_timesteps=remaining,
-        callback=hooks,
-        reset_num_timesteps=ckpt is None,
-        tb_log_name=cfg.algo,
-        progress_bar=False,
-    )
-    wall = time.perf_counter() - t0
-    ts = train_s()
-    t_final = time.perf_counter()
-    # the final model (the last periodic evaluation may precede the last gradient steps)
-    final_rms = None
-    if evaluator is not None:
-        final_rms = evaluator(meta_now(), model, normalizer_of(venv))
-        if curve and curve[-1]["timesteps"] == model.num_timesteps:
-            curve.pop()
-        point = {"timesteps": int(model.num_timesteps), "rms_contour_error_um": final_rms}
-        curve.append({**point, "train_s": ts})
-    if validator is not None and (
-        not val_curve or val_curve[-1]["timesteps"] < model.num_timesteps
-    ):
-        # the final model, unless a periodic validation saw these timesteps (each point of the
-        # curve is the score of the model kept for it)
-        validate(ts)
-    final_eval_s = time.perf_counter() - t_final
-    if evaluator is not None:
-        curve[-1]["wall_s"] = wall_s()
-    if validator is not None and val_curve and "wall_s" not in val_curve[-1]:
-        val_curve[-1]["wall_s"] = wall_s()
-    for msg in watch.update():
-        log(msg)
-    write_checkpoint(
-        ckpt_root, model.num_timesteps, lambda d: write_files(d, True), cfg.keep_checkpoints
-    )
-    final_dir = out / "final"
-    for name, save in (
-        ("model.zip", lambda p: model.save(p)),
-        ("vecnormalize.pkl", lambda p: venv.save(p)),
-    ):
-        atomic_save(final_dir / name, save)
-    atomic_write_json(final_dir / "normalization.json", normalizer_of(venv).to_dict())
-    atomic_write_json(final_dir / "agent.json", meta_now())
-    venv.close()
-    # this session's wall time and the part of it spent scoring (the base at the start, the
-    # periodic and final evaluations and validations)
-    run_wall = time.perf_counter() - run_t0
-    eval_s = base_scoring_s + clock["eval"] + final_eval_s
-    summary = {
-        "out": str(out),
-        "timesteps": int(model.num_timesteps),
-        "wall_s": wall,
-        "train_s": ts,
-        "run_wall_s": run_wall,
-        "eval_s": eval_s,
-        "eval_share": eval_s / run_wall if run_wall > 0 else 0.0,
-        "time_to_target": watch.record(),
-        "base_rms_contour_error_um": evaluator.base_rms if evaluator is not None else None,
-        "final_rms_contour_error_um": final_rms,
-        "curve": curve,
-    }
-    summary.update(_write_kept_model(out, cfg, final_dir, best, validator, val_curve, summary))
-    if evaluator is not None:
-        write_curve(complete=True)
-        title = f"{cfg.algo} + {cfg.base} on {', '.join(cfg.cases or summary['gcode'])}"
-        plot_learning_curve(curve, evaluator.base_rms, cfg.base, title, out / "learning_curve.png")
-    for root in (ckpt_root, out / "best"):
-        for tmp in root.glob(".tmp-*"):
-            shutil.rmtree(tmp, ignore_errors=True)
-    summary.pop("gcode")
-    log(
-        f"wall time {run_wall:.1f} s, of which evaluations {eval_s:.1f} s "
-        f"({summary['eval_share']:.1%}: the base scored at the start {base_scoring_s:.1f} s, "
-        f"periodic {clock['eval']:.1f} s, final {final_eval_s:.1f} s)"
-    )
-    return summary
+    def _on_rollout_end(self) -> None:
+        if self.ckpt_due:
+            self._checkpoint()
+
+    def _checkpoint(self) -> None:
+        self.run.checkpoint(self.num_timesteps)
+        self.ckpt_due = False
+        while self.next_ckpt <= self.num_timesteps:
+            self.next_ckpt += self.run.cfg.checkpoint_every()
+
+    def _on_training_end(self):
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _log_start(log, cfg: TrainConfig, raw, evaluator, validator) -> None:
