@@ -283,9 +283,11 @@ def warm_up() -> None:
         form = compiled_form(ctrl)
         rec = empty_record(core)
         A = core.dim
+        trace = EpisodeTrace(
+            rec["time"], rec["contour_error"], rec["position"], rec["reference"], rec["force"]
+        )
         run_residual_chunk(
-            *form._core_args(core), rec["time"], rec["contour_error"], rec["position"],
-            rec["reference"], rec["force"], np.zeros(A + 1), 0.05, np.ones(A), np.ones(A), True,
+            *form._core_args(core), trace, np.zeros(A + 1), 0.05, np.ones(A), np.ones(A), True,
             True, 0.001, 0, 3,
         )  # fmt: skip
         m = core.obs_dim + 2 * A

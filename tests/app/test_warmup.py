@@ -34,3 +34,10 @@ def test_plant_part_runs_in_process_and_leaves_the_slow_path_cached():
 def test_cli_warm_refuses_zero_workers(capsys):
     assert main(["warm", "--workers", "0"]) == 2
     assert "--workers: a positive integer, got 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("part", sorted(set(warmup.PARTS) - {"batch"}))
+def test_every_part_runs_against_the_current_kernels(part):
+    # a part calls the kernels the way the library does; a signature change that the
+    # warm-up missed fails here, not only on a cold cache (CI's first run)
+    warmup.warm_part(part)
