@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.algos import JAX_ALGOS, SB3_ALGOS
 from contour_env.io import apply_default_mode, atomic_write_json
 
 MANIFEST = "manifest.json"
@@ -39,9 +40,7 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-SB3_ALGOS = ("sac", "td3", "ppo")
-# the JAX implementations (sbx-rl): sb3's classes, API and model.zip, flax parameters inside
-SBX_ALGOS = ("sbx-sac", "sbx-ppo")
+SBX_ALGOS = JAX_ALGOS
 JAX_EXTRA = 'pip install -e ".[jax]"'
 
 

@@ -41,6 +41,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from agents.algos import ALGOS, JAX_ALGOS, ON_POLICY  # noqa: F401 (re-exported)
 from agents.records import attributes
 from agents.registry import controller_names
 from agents.residual import DEFAULT_SCALE, OBSERVATIONS, RESIDUAL_AXES
@@ -49,12 +50,6 @@ from agents.residual_law import RESIDUAL_FRAMES
 from .families import check_families
 from .heldout import refuse_heldout
 
-ALGOS = ("sac", "td3", "ppo", "sbx-sac", "sbx-ppo")
-# the JAX implementations (sbx-rl, the optional extra ``pip install -e ".[jax]"``); the same
-# algorithms, model DIR and predict protocol as sb3's (docs/RESIDUAL_TRAINING.md, "JAX")
-JAX_ALGOS = ("sbx-sac", "sbx-ppo")
-# on-policy algorithms: rollouts of ppo_n_steps per env, no replay buffer
-ON_POLICY = ("ppo", "sbx-ppo")
 PATH_VARIETY = ("circles", "splines", "families")
 REWARD_SCALES = ("base", "fixed")
 CONFIG_FORMAT = "contour_env.train_config/1"

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import argparse
 
+# a module without imports: the CLI starts without the RL stack
+from agents.algos import ALGOS, JAX_ALGOS
+
 from .cli_common import (
     add_json_option,
     add_target_args,
@@ -17,10 +20,6 @@ from .cli_common import (
     target_kwargs,
 )
 
-# agents.rl.config.ALGOS (not imported here: the CLI starts without the RL stack); the sbx-*
-# algorithms are the JAX implementations, the optional extra pip install -e ".[jax]"
-ALGOS = ("sac", "td3", "ppo", "sbx-sac", "sbx-ppo")
-JAX_ALGOS = ("sbx-sac", "sbx-ppo")
 # the names of agents.rl.config.PRESETS (the keywords are read from there when one is used)
 PRESET_NAMES = ("sac-4", "ppo-256")
 # what contour-env train runs when neither --preset nor another --algo than sac is given: the
