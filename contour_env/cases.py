@@ -376,9 +376,12 @@ _add(
         max_jerk_m_s3=10.0,
         settle_time_s=0.05,
         notes=(
-            "Chen & Lee 2020: circle r = {r} m inclined {tilt_deg}° about x, {feed} m/s, "
-            "T = {servo_ms} ms. A full revolution takes {rev_s} s ({rev_steps} steps); the paper "
-            "does not fix the span, so the case is the {sweep_deg}° arc from {start_deg}° to "
+            "Chen & Lee 2020's circle r = {r} m inclined {tilt_deg}°, {feed} m/s, "
+            "T = {servo_ms} ms, turned by 90° about z: the paper's plane is tilted about y "
+            "(x = r cos ωt cos 30°, y = r sin ωt, z = r cos ωt sin 30°), ours about x "
+            "(x = r cos θ, y = r sin θ cos {tilt_deg}°, z = r sin θ sin {tilt_deg}°). A full "
+            "revolution takes {rev_s} s ({rev_steps} steps); the paper does not fix the span, "
+            "so the case is the {sweep_deg}° arc from {start_deg}° to "
             "{end_deg}° ({arc_s} s at the feed; the episode, with start-up, stop and settle, "
             "{episode_s} s, {steps} steps): it contains the x-axis velocity reversal at "
             "{x_reversal_deg}°, where Stribeck friction and ripple matter most. Cosine S-curve "

@@ -393,6 +393,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_benchmark import add_benchmark_command  # the whole benchmark and its report
 
     add_benchmark_command(sub)
+    from .cli_circular import add_circular_test_command  # ISO 230-4 circular (ballbar) test
+
+    add_circular_test_command(sub)
     return parser
 
 

@@ -23,8 +23,9 @@ In a ``parallel=True`` function the parfor pass removes stores into an array tha
 reads afterwards unless the array aliases an argument; a call it does not know is taken for a
 new array (in the env step's ``prange`` over borrowed views every reward was lost). The view is
 therefore registered with numba's alias analysis as an alias of its argument (below), so the
-stores stay. The parallel env driver passes its arrays as they are all the same: numba's thread
-team receives them as raw buffers, with no reference count to save.
+stores stay. The env drivers borrow outside any ``prange`` all the same: both call
+:func:`contour_env.env.kernel.step_range` (the parallel one once per block of envs), which
+borrows once per call and runs its envs in a plain loop.
 """
 
 from __future__ import annotations

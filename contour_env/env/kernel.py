@@ -430,6 +430,48 @@ def record_step(n, b, n_axes, T, n_steps, state, path, trace):
 
 
 @njit(cache=True)
+def step_range(
+    lo, hi, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type,
+    seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
+    truncated, scratch, info,
+):  # fmt: skip
+    """The one loop of both drivers: every active env b of [lo, hi) advanced by one servo
+    period (:func:`_step_one`). Returns (n_terminated, n_ended) among them.
+
+    The arrays are borrowed once here, before the loop, and the per-env step is inlined in it:
+    a null meminfo is a constant, so the compiled loop has no reference-count update left at
+    all (:mod:`contour_env.env.borrow`; issue 35: a per-env function receiving its arrays cost
+    1.6x). Records built in a ``prange`` body instead are hoisted out of it by numba's parfor
+    pass and reach the threads with the caller's reference counts: every field read was then
+    an atomic increment and decrement on counters the threads share (measured at 4096 envs:
+    the parallel driver 2.1 M env-steps/s on one thread against the serial 5.7 M, and slower on
+    two threads than on one). The parallel driver therefore calls this function once per
+    thread, on a contiguous block of envs."""
+    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
+    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    B = borrowed
+    state, path, plant, out = _records(
+        B(z), B(ax), B(k), B(eps), B(est), B(status), B(seed), B(scratch), B(ref_pav),
+        B(frame), B(obs_tab), B(seg_type), B(seg_data), B(seg_bounds), B(mat_T), B(mat_h),
+        B(cont), B(nl), B(pidx), B(obs), B(reward), B(terminated), B(truncated),
+    )  # fmt: skip
+    cfg, icfg, action, active, z2 = B(cfg), B(icfg), B(action), B(active), B(z2)
+    info = (B(info[0]), B(info[1]), B(info[2]), B(info[3]))
+    n_axes = z.shape[1]
+    n_terminated = 0
+    n_ended = 0
+    for b in range(lo, hi):
+        if active[b]:
+            if n_axes == 2:
+                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            else:
+                _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            n_terminated += 1 if out.terminated[b] else 0
+            n_ended += 1 if out.terminated[b] or out.truncated[b] else 0
+    return n_terminated, n_ended
+
+
+@njit(cache=True)
 def env_step(
     cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type, seg_data,
     seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
@@ -456,34 +498,18 @@ def env_step(
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad, 0, 0
-    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
-    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
-    # borrowed views (no reference count; see contour_env.env.borrow), made once per call
-    # before the loop, with the per-env step inlined in the loop: the compiled step then has
-    # no reference-count update left at all (a null meminfo is a constant, so LLVM removes
-    # the increments and decrements), where a non-inlined per-env or per-chunk function
-    # received its arrays as arguments and paid a call and a check per array and env
-    # (issue 35: 1.6x slower)
-    B = borrowed
-    state, path, plant, out = _records(
-        B(z), B(ax), B(k), B(eps), B(est), B(status), B(seed), B(scratch), B(ref_pav),
-        B(frame), B(obs_tab), B(seg_type), B(seg_data), B(seg_bounds), B(mat_T), B(mat_h),
-        B(cont), B(nl), B(pidx), B(obs), B(reward), B(terminated), B(truncated),
+    n_terminated, n_ended = step_range(
+        0, z.shape[0], cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
+        seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs,
+        reward, terminated, truncated, scratch, info,
     )  # fmt: skip
-    cfg, icfg, action, active, z2 = B(cfg), B(icfg), B(action), B(active), B(z2)
-    info = (B(info[0]), B(info[1]), B(info[2]), B(info[3]))
-    n_envs, n_axes = z.shape[0], z.shape[1]
-    n_terminated = 0
-    n_ended = 0
-    for b in range(n_envs):
-        if active[b]:
-            if n_axes == 2:
-                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
-            else:
-                _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
-            n_terminated += 1 if out.terminated[b] else 0
-            n_ended += 1 if out.terminated[b] or out.truncated[b] else 0
     return -1, n_terminated, n_ended
+
+
+# the parallel driver's blocks: enough envs per block that its one call is noise (a block of
+# 128 envs is ~20 µs of stepping), enough blocks to share out evenly over the threads
+PARALLEL_BLOCK_ENVS = 128
+PARALLEL_BLOCKS = 64
 
 
 @njit(cache=True, parallel=True)
@@ -493,37 +519,30 @@ def env_step_parallel(
     truncated, scratch, info,
 ):  # fmt: skip
     """As :func:`env_step`, with the envs spread over numba's threads (``numba.set_num_threads``
-    before the call sets how many): a ``prange`` over the envs, which numba's static schedule
-    cuts into one contiguous block of nearly equal size per thread (one hand-off per call).
-    Same arithmetic per env, and each env's step reads and writes only its own rows, so the
-    results are bit-identical to the serial driver whatever the thread count (the two counts
-    returned are integer sums)."""
+    before the call sets how many): the batch cut into contiguous blocks of at least
+    :data:`PARALLEL_BLOCK_ENVS` envs (at most :data:`PARALLEL_BLOCKS` blocks), which numba's
+    static schedule hands out in equal runs per thread, each block stepped by
+    :func:`step_range` (one call per block and servo period). Same arithmetic per
+    env, and each env's step reads and writes only its own rows, so the results are
+    bit-identical to the serial driver whatever the thread count (the two counts returned are
+    integer sums)."""
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad, 0, 0
-    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
-    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
-    # the arrays as they are, not borrowed: numba's thread team receives them as raw buffers,
-    # with no reference count to update (borrowed views measured no faster here; see
-    # contour_env.env.borrow on views in a prange). The step is inlined in the loop body, so
-    # the per-env code makes no call (issue 35: a non-inlined per-chunk function cost 1.6x);
-    # the records are made in the body, from the arrays the thread team received
-    n_envs, n_axes = z.shape[0], z.shape[1]
-    n_terminated = 0
-    n_ended = 0
-    for b in prange(n_envs):
-        if active[b]:
-            state = EnvState(z, ax, k, eps, est, status, seed, scratch)
-            path = PathArrays(ref_pav, frame, obs_tab, seg_type, seg_data, seg_bounds)
-            plant = PlantArrays(mat_T, mat_h, cont, nl, pidx)
-            out = StepOutputs(obs, reward, terminated, truncated)
-            if n_axes == 2:
-                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
-            else:
-                _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
-            n_terminated += 1 if terminated[b] else 0
-            n_ended += 1 if terminated[b] or truncated[b] else 0
-    return -1, n_terminated, n_ended
+    n_envs = z.shape[0]
+    n_chunks = max(min(PARALLEL_BLOCKS, n_envs // PARALLEL_BLOCK_ENVS), 1)
+    counts = np.zeros((n_chunks, 2), dtype=np.int64)
+    for c in prange(n_chunks):
+        lo = c * n_envs // n_chunks
+        hi = (c + 1) * n_envs // n_chunks
+        n_term, n_end = step_range(
+            lo, hi, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
+            seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs,
+            reward, terminated, truncated, scratch, info,
+        )  # fmt: skip
+        counts[c, 0] = n_term
+        counts[c, 1] = n_end
+    return -1, counts[:, 0].sum(), counts[:, 1].sum()
 
 
 @njit(cache=True)

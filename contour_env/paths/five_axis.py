@@ -339,8 +339,15 @@ class FiveAxisPath:
     * circle (§4): ε₁ = x_w² + 2 y_w² − r² (elliptical cylinder), ε₂ = y_w − z_w (the 45°
       plane);
     * tool towards X_c (eqs. 14–16, both paths): ε₃ = (x_w − x_c) cos C − (y_w − y_c) sin C,
-      ε₄ = (z_w − z_c)² − L cos² A. The signs are those of our kinematics, o_w = (sin A sin C,
-      sin A cos C, cos A) (the extracted paper text lost its minus signs).
+      ε₄ = (z_w − z_c)² − L cos² A, both zero on the path. ε₃ is the paper's printed
+      (x_w − x_c) cos θ_C + (y_w − y_c) sin θ_C with θ_C = −C: our kinematics are the mirror
+      image of eq. 1 (θ_A = −A, θ_C = −C; o_w = (sin A sin C, sin A cos C, cos A), see
+      :mod:`contour_env.plants.five_axis.kinematics`). ε₄ is not the printed one: the paper
+      prints (x_w − x_c)² − L cos² θ_A (from "O_wx = (x_w − x_c)/L = cos θ_A"), which cannot
+      be right: cos A is o_z = (z_w − z_c)/√L, not o_x, so on the path the printed form equals
+      (x_w − x_c)² − (z_w − z_c)², not 0 (−0.32…−0.26 m² on the line, −0.76…−0.53 m² on the
+      circle), and the law would drive the tool off the path. We use the z form, which the
+      paper's own derivation (tool vector towards X_c, O_wz = cos θ_A) gives.
 
     Tangential error (eq. 7): e = wᵀ (ξ − ξ_d) with w = ξ̇_d in the paper. ``tangent_floor_m_s``
     v₀ ≥ 0 of the methods below uses w = dξ_d/ds (ṡ + v₀) instead: v₀ = 0 is the paper's

@@ -12,7 +12,8 @@ import pytest
 from agents.compare import compare, format_table
 
 CASES = ("five-axis-line", "five-axis-circle")
-# Chen 2022 Table 3 (RMS): tool-tip contour error µm, orientation error arc-seconds
+# Chen 2022 §4 text (RMS; the paper has Tables 1–2 only): tool-tip contour error µm,
+# orientation error arc-seconds
 PAPER = {
     "five-axis-line": {"pd": (330.7, 145.3), "ismc": (2.9, 4.8)},
     "five-axis-circle": {"pd": (668.4, 649.5), "ismc": (17.9, 2.8)},

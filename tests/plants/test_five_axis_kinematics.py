@@ -69,7 +69,7 @@ def test_home_pose_joints_equal_workpiece_coordinates():
 
 
 def test_tool_vector_matches_eq1():
-    # o_w = (sin A sin C, sin A cos C, cos A), eq. 1
+    # o_w = (sin A sin C, sin A cos C, cos A): eq. 1 mirrored (its θ_A = −A, θ_C = −C)
     rng = np.random.default_rng(1602)
     q = _random_joints(rng, 100)
     _, tool = forward(q, GEOM)

@@ -5,16 +5,29 @@ the motion of the tool relative to the table (the table moves by (−x, −y), t
 by +z). The workpiece frame is fixed to the C table: its origin is the C-table face centre,
 ``d4_m`` along the C axis from the rotation centre (the A axis at height d1 + d2). Tool tip
 p_w (3,) m and unit tool vector o_w (3,) (from the tip towards the spindle) are in the
-workpiece frame. With R_A, R_C the rotations about x by A and about z by C (eq. 1):
+workpiece frame. With R_A, R_C the rotations about x by A and about z by C:
 
     p_w = R_C^T R_A^T (x, y, z + D_all)^T − d4 e_z,    D_all = d_z − d1 − d2 − d_tool
     o_w = R_C^T R_A^T e_z = (sin A sin C, sin A cos C, cos A)
 
-The extracted text of the paper lost its minus signs; this is the rigid-body form whose tool
-vector is eq. 1's printed O_w. Inverse (eq. 2) on the branch s = ±1 (default −1: the travel
-−120°…+30° is mostly negative): A = s·arccos(o_z) (computed as s·atan2(hypot(o_x, o_y), o_z),
-well conditioned near A = 0), C = atan2(s·o_x, s·o_y) unwrapped to the nearest of ``c_ref``
-(continuous paths), (x, y, z) = R_A R_C (p_w + d4 e_z) − D_all e_z.
+This is the mirror image of the paper's eq. 1, not eq. 1 itself. In the paper's angles
+θ_A, θ_C, eq. 1 is p_w = R_C R_A (x, y, z + D_all)^T − d4 e_z (R_A, R_C at θ_A, θ_C),
+O_w = (sin θ_A sin θ_C, −sin θ_A cos θ_C, cos θ_A). Its extracted text lost the minus signs;
+they are restored where two terms have no operator between them, which makes eq. 1's
+x_w, y_w, z_w that rigid-body map term by term, with ∂p_w/∂z = O_w, and agrees with the
+printed ε₃ = (x_w − x_c) cos θ_C + (y_w − y_c) sin θ_C (§4). The two differ by a relabelling
+of the rotation directions (A → −A, C → −C), exactly:
+
+    forward(x, y, z, A, C) = paper's eq. 1 at (x, y, z, θ_A = −A, θ_C = −C)
+
+It is harmless: the joint references come from this module's own inverse, and a formula of
+the paper in θ_A, θ_C (ε₃ above) holds here with θ_A = −A, θ_C = −C.
+
+Inverse (eq. 2, in these angles) on the branch s = ±1 (default −1: the travel −120°…+30° is
+mostly negative; it is eq. 2's own branch θ_A = arccos(O_wz) ≥ 0): A = s·arccos(o_z)
+(computed as s·atan2(hypot(o_x, o_y), o_z), well conditioned near A = 0),
+C = atan2(s·o_x, s·o_y) unwrapped to the nearest of ``c_ref`` (continuous paths),
+(x, y, z) = R_A R_C (p_w + d4 e_z) − D_all e_z.
 
 Singularity: at A = 0 the tool vector is e_z for every C (C undefined). Where
 hypot(o_x, o_y) <= SINGULAR_TOL the inverse keeps C = c_ref (0 without one), so a path
@@ -152,7 +165,8 @@ def _as_array(value, name: str, last: int) -> np.ndarray:
 
 
 def forward(q, geom: FiveAxisGeometry) -> tuple[np.ndarray, np.ndarray]:
-    """Tool tip p_w (..., 3) m and unit tool vector o_w (..., 3) of joints q (..., 5) (eq. 1).
+    """Tool tip p_w (..., 3) m and unit tool vector o_w (..., 3) of joints q (..., 5) (eq. 1
+    mirrored: the paper's eq. 1 at θ_A = −A, θ_C = −C; see the module docstring).
 
     No travel check (a simulated machine may overshoot); shape and finiteness are checked.
     """
