@@ -1,5 +1,6 @@
-"""The five-axis laws of Chen, Khong & Hsieh (2022) under the one policy protocol: joint PD
-(``pd`` on the five-axis plant) and the equivalent-error ISMC (``ismc``).
+"""The five-axis laws under the one policy protocol: Chen, Khong & Hsieh (2022)'s joint PD
+with the paper's gains (``pd`` on the five-axis plant) and equivalent-error ISMC (``ismc``),
+and the tuned joint PID baseline (``pid``, five-axis only).
 
 The laws themselves are :class:`agents.ismc.JointPD` and :class:`agents.ismc.EquivalentErrorISMC`
 (per env, on the nominal model ξ̈ = f + G u); these classes bind them to a five-axis env,
@@ -14,11 +15,26 @@ import numpy as np
 from contour_env.env.core import core_of
 
 from .base import Controller, per_axis
-from .ismc import PAPER_ISMC_GAINS, PAPER_PD_GAINS, EquivalentErrorISMC, JointPD
-from .parameters import AXES, BOOL, FLOAT, Param
+from .ismc import PAPER_ISMC_GAINS, PAPER_PD_GAINS, EquivalentErrorISMC, JointPD, JointPID
+from .parameters import AXES, BOOL, FLOAT, INT, Param
 
 # a five-axis program (G-code) has no paper gains: PD takes the line's
 DEFAULT_PD_CASE = "five-axis-line"
+
+# pid's defaults (docs/FIVE_AXIS.md, "The tuned baseline"; scripts/five_axis_tune.py): the
+# largest ω meeting ≥ 6 dB / ≥ 30° on every joint loop over the ±20 % inertia corners and the
+# poses (agents.five_axis_margins), the integral pole a share of it
+PID_BANDWIDTH_RAD_S = 95.0
+PID_INTEGRAL_SHARE = 0.5
+# the friction pid's feedforward assumes (pid:friction=1): viscous (N s/m, N m s/rad), Coulomb
+# (N, N m) and the velocity of its tanh (m/s, rad/s): the realistic plant's documented levels
+# (docs/FIVE_AXIS.md), as identified on the machine; the nominal model has no friction
+PID_FRICTION = {
+    "viscous": (1500.0, 1800.0, 1500.0, 40.0, 15.0),
+    "coulomb": (150.0, 200.0, 180.0, 30.0, 10.0),
+    "velocity": (2e-3, 2e-3, 2e-3, 5e-3, 5e-3),
+}
+PID_FRICTION_DEFAULT = 1.0
 
 
 class _FiveAxisController(Controller):
@@ -32,13 +48,42 @@ class _FiveAxisController(Controller):
         return super().bind(env)
 
     def configure_for(self, plant) -> Controller:
-        raise ValueError(f"controller {self.name!r}: no loop analysis for the five-axis plant")
+        """The gains for ``plant`` (a five-axis machine, :class:`FiveAxisMachine`) without an
+        env, for the loop analysis (:mod:`agents.five_axis_margins`); a feed-drive plant is a
+        ValueError, as binding to its env is."""
+        self._attach(plant, 1)
+        self._setup = None
+        self._configure_gains()
+        return self
+
+    def _configure_gains(self) -> None:
+        raise ValueError(
+            f"controller {self.name!r}: no joint-loop model for the loop analysis (its law acts "
+            "on the path's equivalent errors; margins are for the joint-space laws pd, pid)"
+        )
+
+    def joint_loop_gains(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The law linearised at pose q (5,) for the loop analysis: (A0, A1, A2), each (5, 5)
+        in N (N·m) per m (rad), such that u = A0 E_k + A1 (E_k − E_{k−1}) / T + A2 T Σ E_j
+        with E = ξ_d − ξ_measured (the form of :meth:`Controller.loop_gains`). A joint law
+        through the nominal model gives A0 = M̂(q) Kp − ∂ĝ/∂ξ, A1 = M̂(q) Kd, A2 = M̂(q) Ki
+        (feedforward, Coriolis and friction feedforward close no loop)."""
+        from contour_env.analysis.five_axis_linear import gravity_stiffness
+        from contour_env.plants.five_axis import mass_matrix
+
+        q = np.asarray(q, dtype=np.float64)
+        M = mass_matrix(q, self.nominal.inertia)
+        Kg = gravity_stiffness(q, self.nominal.inertia)
+        ki = getattr(self, "Ki", np.zeros(5))
+        return M * self.Kp[None, :] - Kg, M * self.Kd[None, :], M * ki[None, :]
 
     def _attach(self, plant, n_envs: int) -> None:
         if getattr(plant, "family", None) != "five-axis":
             raise ValueError(
                 f"env: controller {self.name!r} (five-axis) needs the five-axis plant; the env "
-                f"has the {plant.n_axes}-axis plant {plant.name!r}"
+                f"has the {plant.n_axes}-axis plant {plant.name!r} (run it with plant "
+                "'five-axis': the cases five-axis-line, five-axis-circle or a five-axis G-code "
+                "program)"
             )
         self.nominal = plant.nominal
         self.servo_period_s = plant.servo_period_s
@@ -76,7 +121,10 @@ class FiveAxisPDController(_FiveAxisController):
     """
 
     name = "pd"
-    summary = "Chen 2022's joint PD through the nominal model, Kp 800 1/s², Kd 60/310 1/s"
+    summary = (
+        "Chen 2022's joint PD with the paper's gains (Table 2: Kp 800 1/s², Kd 60/310 1/s) "
+        "through the nominal model"
+    )
     PARAMETERS = {
         "w": Param(
             "bandwidth_rad_s", "ω of every joint loop, rad/s: Kp = ω², Kd = 2ζω", FLOAT, ">0"
@@ -92,20 +140,167 @@ class FiveAxisPDController(_FiveAxisController):
         self.damping = damping
         self._P_user, self._D_user = P, D
 
-    def configure(self) -> None:
-        kp, kd = PAPER_PD_GAINS.get(self._setup.name, PAPER_PD_GAINS[DEFAULT_PD_CASE])
+    def _configure_gains(self) -> None:
+        # the gains of the path's case (margins, without a path: the line's)
+        case = DEFAULT_PD_CASE if self._setup is None else self._setup.name
+        kp, kd = PAPER_PD_GAINS.get(case, PAPER_PD_GAINS[DEFAULT_PD_CASE])
         if self.bandwidth_rad_s is not None:
             w = float(self.bandwidth_rad_s)
             zeta = 1.0 if self.damping is None else float(self.damping)
             kp, kd = w * w, 2.0 * zeta * w
         self.Kp = per_axis("P", kp if self._P_user is None else self._P_user, 5)
         self.Kd = per_axis("D", kd if self._D_user is None else self._D_user, 5)
+
+    def configure(self) -> None:
+        self._configure_gains()
         self.law = JointPD(
             _ReferenceOnly(self._setup), self.nominal.inertia, kp=self.Kp, kd=self.Kd
         )
 
     def _laws(self):
         return (self.law,)
+
+
+class FiveAxisPIDController(_FiveAxisController):
+    """Joint-space PID through the nominal model (computed torque) with acceleration
+    feedforward: the five-axis baseline tuned like the feed drives' defaults
+    (:class:`agents.ismc.JointPID`; gains, margins and tuning path: docs/FIVE_AXIS.md).
+
+        u = M̂(ξ) (ξ̈_d[k + lead] + Kp e + Ki ∫e + Kd ė) + ĥ(ξ, ξ̇) (+ f̂(ξ̇_d[k + lead]))
+
+    Gains by pole placement on the nominal double integrator: closed-loop poles at a double
+    ω (damping ζ) and at the integral pole ω_i, (s² + 2ζω s + ω²)(s + ω_i), i.e.
+    Kd = 2ζω + ω_i, Kp = ω² + 2ζω ω_i, Ki = ω² ω_i. Runs on named cases and G-code programs.
+
+    Parameters
+    ----------
+    bandwidth_rad_s : scalar or per joint (5,) > 0   ω (default :data:`PID_BANDWIDTH_RAD_S`)
+    damping : float > 0                              ζ (default 1)
+    integral_pole_rad_s : scalar or per joint >= 0   ω_i (default ω × :data:`PID_INTEGRAL_SHARE`)
+    P, I, D : scalar or per joint, optional          Kp 1/s², Ki 1/s³, Kd 1/s, overriding the above
+    feedforward : bool                               acceleration feedforward (default True)
+    lead_samples : int >= 0                          preview of the feedforward terms (default
+                                                     the computation delay, 1 sample on the
+                                                     realistic plant, 0 on the ideal one)
+    friction_feedforward : float >= 0                the share of :data:`PID_FRICTION` fed
+                                                     forward (default :data:`PID_FRICTION_DEFAULT`)
+    """
+
+    name = "pid"
+    summary = (
+        "joint PID through the nominal model with acceleration feedforward, gains at "
+        ">= 6 dB / 30° over the ±20 % inertia corners"
+    )
+    PARAMETERS = {
+        "w": Param(
+            "bandwidth_rad_s",
+            "ω of the joint loops' double pole, rad/s (per joint x/y/z/A/C)",
+            AXES,
+            ">0",
+        ),
+        "zeta": Param("damping", "damping ratio ζ of the double pole (default 1)", FLOAT, ">0"),
+        "wi": Param(
+            "integral_pole_rad_s", "integral pole ω_i, rad/s (0: a PD)", AXES, ">=0"
+        ),  # fmt: skip
+        "p": Param("P", "Kp, 1/s² (overrides w)", AXES, ">=0"),
+        "i": Param("I", "Ki, 1/s³ (overrides w, wi)", AXES, ">=0"),
+        "d": Param("D", "Kd, 1/s (overrides w)", AXES, ">=0"),
+        "ff": Param("feedforward", "acceleration feedforward ξ̈_d (default 1)", BOOL),
+        "lead": Param(
+            "lead_samples",
+            "feedforward preview, samples (default the computation delay)",
+            INT,
+            ">=0",
+        ),
+        "friction": Param(
+            "friction_feedforward",
+            "share of the identified viscous + Coulomb friction fed forward (0: none; default 1)",
+            FLOAT,
+            ">=0",
+        ),
+    }
+
+    def __init__(
+        self,
+        bandwidth_rad_s=None,
+        damping=None,
+        integral_pole_rad_s=None,
+        P=None,
+        I=None,  # noqa: E741 (the gain's name)
+        D=None,
+        feedforward=True,
+        lead_samples=None,
+        friction_feedforward=None,
+    ):
+        super().__init__()
+        self.bandwidth_rad_s = bandwidth_rad_s
+        self.damping = damping
+        self.integral_pole_rad_s = integral_pole_rad_s
+        self._user = {"P": P, "I": I, "D": D}
+        self.feedforward = bool(feedforward)
+        self.lead_samples = lead_samples
+        share = PID_FRICTION_DEFAULT if friction_feedforward is None else friction_feedforward
+        share = float(share)
+        if not (np.isfinite(share) and share >= 0):
+            raise ValueError(f"friction_feedforward: a share >= 0, got {friction_feedforward!r}")
+        self.friction_feedforward = share
+        self._per_env = []
+
+    def _configure_gains(self) -> None:
+        w = per_axis(
+            "w", PID_BANDWIDTH_RAD_S if self.bandwidth_rad_s is None else self.bandwidth_rad_s, 5
+        )
+        if np.any(w <= 0):
+            raise ValueError(f"w: must be > 0, got {w.tolist()}")
+        zeta = 1.0 if self.damping is None else float(self.damping)
+        wi = per_axis(
+            "wi",
+            PID_INTEGRAL_SHARE * w
+            if self.integral_pole_rad_s is None
+            else self.integral_pole_rad_s,
+            5,
+        )
+        placed = {"P": w * w + 2 * zeta * w * wi, "I": w * w * wi, "D": 2 * zeta * w + wi}
+        for key, value in placed.items():
+            user = self._user[key]
+            setattr(self, f"K{key.lower()}", per_axis(key, value if user is None else user, 5))
+        self.wi = wi
+        self.w = w
+        self.zeta = zeta
+
+    def configure(self) -> None:
+        self._configure_gains()
+        lead = self.lead_samples
+        self.lead = self.computation_delay_steps if lead is None else int(lead)
+        friction = None
+        if self.friction_feedforward > 0:
+            share = self.friction_feedforward
+            friction = (
+                share * np.asarray(PID_FRICTION["viscous"], dtype=np.float64),
+                share * np.asarray(PID_FRICTION["coulomb"], dtype=np.float64),
+                np.asarray(PID_FRICTION["velocity"], dtype=np.float64),
+            )
+        self._per_env = [
+            JointPID(
+                _ReferenceOnly(self._setup),
+                self.nominal.inertia,
+                kp=self.Kp,
+                ki=self.Ki,
+                kd=self.Kd,
+                feedforward=self.feedforward,
+                lead=self.lead,
+                friction=friction,
+            )
+            for _ in range(self.n_envs)
+        ]
+
+    def reset(self, mask=None) -> None:
+        for b, law in enumerate(self._per_env):
+            if mask is None or bool(np.asarray(mask).reshape(-1)[b]):
+                law.reset()
+
+    def _laws(self):
+        return self._per_env
 
 
 class ISMCController(_FiveAxisController):

@@ -1,7 +1,8 @@
 """Five-axis contouring laws of Chen, Khong & Hsieh (2022): the equivalent-error integral
-sliding mode controller (eqs. 6–12) and the joint-space PD it is compared with (Table 2).
+sliding mode controller (eqs. 6–12) and the joint-space PD it is compared with (Table 2); and
+the joint PID baseline tuned to the project's margins (``JointPID``, ours).
 
-Both are plain classes: ``command(q, qd, k)`` takes the measured joints ξ (5,), rates ξ̇
+All are plain classes: ``command(q, qd, k)`` takes the measured joints ξ (5,), rates ξ̇
 (5,) (m, rad; m/s, rad/s) and the reference sample index k, and returns the joint command
 u (5,) in (N, N, N, N·m, N·m). They use the nominal dynamics ξ̈ = f + G u (eq. 5) of
 :func:`contour_env.plants.five_axis.dynamics.drift_and_gain`. The policy-protocol wrapper
@@ -15,9 +16,14 @@ import math
 import numpy as np
 
 from contour_env.paths.five_axis import FiveAxisPath
-from contour_env.plants.five_axis.dynamics import drift_and_gain, gravity
+from contour_env.plants.five_axis.dynamics import (
+    coriolis_matrix,
+    drift_and_gain,
+    gravity,
+    mass_matrix,
+)
 
-__all__ = ["PAPER_ISMC_GAINS", "PAPER_PD_GAINS", "EquivalentErrorISMC", "JointPD"]
+__all__ = ["PAPER_ISMC_GAINS", "PAPER_PD_GAINS", "EquivalentErrorISMC", "JointPD", "JointPID"]
 
 # Chen 2022, Table 2 (simulation cases 1–4): PD (Kp, Kd) and ISMC (b1, b2, ρ, μ) per path
 PAPER_PD_GAINS = {
@@ -37,7 +43,10 @@ PAPER_ISMC_GAINS = {
 # tangential offset is amplified ~100× as the feed stops (the circle diverged there on the
 # realistic plant). w = dξ_d/ds (ṡ + v₀) with v₀ = F keeps the scale within F … 2F over the
 # whole path (e at cruise is twice the paper's, at rest equal to it at cruise): the same
-# law, now well-conditioned from rest to rest. v₀ = 0 is the paper's weight.
+# law, now well-conditioned from rest to rest. v₀ = 0 is the paper's weight. Ablated in
+# docs/FIVE_AXIS.md ("ISMC's two additions", scripts/five_axis_table.py --ablations): v₀ = 0
+# stops at the path's end (Γ singular), 0.01 F diverges on the circle; from F up the line is
+# unchanged and a larger v₀ helps the circle only at its end point (its overshoot there).
 DEFAULT_TANGENT_FLOOR_SHARE = 1.0
 
 
@@ -67,6 +76,11 @@ class EquivalentErrorISMC:
         u = Γ⁻¹ (−Ω − b₁ η̇ − b₂ η − ρ tanh(σ / μ)),   σ = η̇ + b₁ η + b₂ ∫η dt
 
     so that σ̇ = −ρ tanh(σ/μ) on the model and, on σ = 0, η̈ + b₁ η̇ + b₂ η = 0.
+
+    ε₁…ε₄ are :class:`FiveAxisPath`'s path functions (its docstring gives each). Two differ
+    from the printed text: ε₄ = (z_w − z_c)² − L cos² A, zero on the path, where the paper
+    prints (x_w − x_c)² − L cos² θ_A, which is not; and ε₃ carries our kinematics' angles, the
+    paper's mirrored (θ_A = −A, θ_C = −C).
 
     Parameters
     ----------
@@ -247,3 +261,91 @@ class JointPD:
             return acc + gravity(q, self.inertia)
         drift, gain = drift_and_gain(q, qd, self.inertia)
         return np.linalg.solve(gain, acc - drift)
+
+
+class JointPID:
+    """Joint-space PID through the nominal model (computed torque), the tuned baseline of the
+    five-axis plant (``pid``; gains and margins: docs/FIVE_AXIS.md):
+
+        u = M̂(ξ) a + ĥ(ξ, ξ̇) + f̂(ξ̇_d[k + lead]),
+        a = ξ̈_d[k + lead] + Kp e + Ki ∫e dt + Kd ė,    e = ξ_d[k] − ξ
+
+    with M̂, ĥ = Ĉ ξ̇ + ĝ the nominal model (u = G⁻¹ (a − f) of eq. 5), ė the backward
+    difference of e (the measured rate is a backward difference, so the reference's is too:
+    ė = (e_k − e_{k−1}) / T exactly, the form the loop analysis models), ∫e by the rectangle
+    rule including e_k. The acceleration feedforward (``feedforward``) and the friction
+    feedforward f̂ (``friction``: per-joint viscous and Coulomb levels, or None) read the
+    reference ``lead`` samples ahead: the command computed at k acts from k + 1 on a plant
+    with the one-period computation delay, held over the period and lagged by the current
+    loop. Neither closes a loop, so neither changes the margins.
+
+    Parameters
+    ----------
+    path : object with ``reference`` (a FiveAxisReference) and ``name``
+    inertia : FiveAxisInertia, the nominal model
+    kp (1/s²), ki (1/s³), kd (1/s) : scalar or per joint (5,), >= 0
+    feedforward : bool, acceleration feedforward ξ̈_d (default True)
+    lead : int >= 0, samples of reference preview of the feedforward terms
+    friction : (viscous (5,), coulomb (5,), smoothing velocity (5,)) or None
+        f̂(v) = b v + f_c tanh(v / v_s).
+
+    State: ``integral`` (5,) = ∫e dt; reset() zeroes it.
+    """
+
+    def __init__(
+        self, path, inertia, kp, ki, kd, feedforward: bool = True, lead: int = 0, friction=None
+    ):
+        self.path = path
+        self.inertia = inertia
+        gains = {}
+        for name, g in (("kp", kp), ("ki", ki), ("kd", kd)):
+            arr = np.broadcast_to(np.asarray(g, dtype=np.float64), (5,)).copy()
+            if not np.all(np.isfinite(arr) & (arr >= 0)):
+                raise ValueError(f"{name}: must be finite and >= 0, got {arr.tolist()}")
+            gains[name] = arr
+        self.kp, self.ki, self.kd = gains["kp"], gains["ki"], gains["kd"]
+        self.feedforward = bool(feedforward)
+        if isinstance(lead, bool) or not isinstance(lead, (int, np.integer)) or lead < 0:
+            raise ValueError(f"lead: must be an integer >= 0, got {lead!r}")
+        self.lead = int(lead)
+        if friction is None:
+            self.friction = None
+        else:
+            visc, coulomb, vs = (
+                np.broadcast_to(np.asarray(a, dtype=np.float64), (5,)).copy() for a in friction
+            )
+            if not (np.all(visc >= 0) and np.all(coulomb >= 0) and np.all(vs > 0)):
+                raise ValueError("friction: viscous and Coulomb levels >= 0, velocities > 0")
+            self.friction = (visc, coulomb, vs)
+        self.dt = path.reference.servo_period_s
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero the integral ∫e dt."""
+        self.integral = np.zeros(5)
+
+    def command(self, q, qd, k: int) -> np.ndarray:
+        """Joint command u (5,) at measured joints q, rates qd (5,) and reference sample k."""
+        ref = self.path.reference
+        last = ref.n_steps - 1
+        k = int(k)
+        kk, kprev, kff = (
+            min(max(k, 0), last),
+            min(max(k - 1, 0), last),
+            min(max(k + self.lead, 0), last),
+        )
+        q = np.asarray(q, dtype=np.float64)
+        qd = np.asarray(qd, dtype=np.float64)
+        e = ref.joints[kk] - q
+        e_dot = (ref.joints[kk] - ref.joints[kprev]) / self.dt - qd
+        self.integral = self.integral + self.dt * e
+        acc = self.kp * e + self.ki * self.integral + self.kd * e_dot
+        if self.feedforward:
+            acc = acc + ref.joint_accel[kff]
+        M = mass_matrix(q, self.inertia)
+        u = M @ acc + coriolis_matrix(q, qd, self.inertia) @ qd + gravity(q, self.inertia)
+        if self.friction is not None:
+            visc, coulomb, vs = self.friction
+            v = ref.joint_rate[kff]
+            u = u + visc * v + coulomb * np.tanh(v / vs)
+        return u

@@ -207,8 +207,9 @@ def _plant_for(plant, ideal: bool, structural_mode: bool) -> Plant:
         return plant
     if isinstance(plant, str) and plant in FIVE_AXIS_PLANT_ALIASES:
         raise ValueError(
-            f"plant: the five-axis plant ({plant!r}) has no margins tool yet; margins are for "
-            f"the feed-drive plants: {', '.join(PLANTS)}"
+            f"plant: the five-axis plant ({plant!r}) is analysed joint by joint by "
+            "agents.five_axis_margins.five_axis_loop_margins (contour-env margins --plant "
+            f"five-axis); this function is for the feed-drive plants: {', '.join(PLANTS)}"
         )
     return Plant(plant, ideal=ideal, structural_mode=structural_mode)
 
@@ -232,7 +233,8 @@ def loop_margins(
         controller object (configured here for the plant).
     plant : str, mapping, PlantParams or Plant
         The plant; its realistic true parameters are analysed (``ideal=True``: the textbook
-        model), with the two-mass mode when ``structural_mode``.
+        model), with the two-mass mode when ``structural_mode``. The five-axis plant is
+        :func:`agents.five_axis_margins.five_axis_loop_margins`'s (a ValueError here).
     mass_variation : float in [0, 0.9]
         The ±fraction of the mass corners (default 0.2).
     path_conditions : list of dict, optional
@@ -421,12 +423,16 @@ def format_margins(rep: dict) -> str:
         f"plant {rep['plant']} ({'ideal' if rep['ideal'] else 'realistic'}"
         f"{', structural mode' if rep['structural_mode'] else ''}), controller "
         f"{rep['controller']}: ±{rep['mass_variation'] * 100:.0f} % mass corners × "
-        f"{len(rep['directions'])} path directions"
+        + (
+            f"{len(rep['poses'])} poses (joint loops)"
+            if "poses" in rep
+            else f"{len(rep['directions'])} path directions"
+        )
     )
     lines = [
         head,
         f"{'loop':12s}{'GM dB':>8s}{'at Hz':>8s}{'PM °':>8s}{'at Hz':>8s}  worst case "
-        "(mass ×, path)",
+        + ("(inertia ×, pose)" if "poses" in rep else "(mass ×, path)"),
     ]
     for r in rep["loops"]:
         at = r["phase_margin_at"] or {}
@@ -434,7 +440,7 @@ def format_margins(rep: dict) -> str:
         lines.append(
             f"{r['loop']:12s}{f(r['gain_margin_db'], '.2f')}{f(r['phase_crossover_hz'], '.1f')}"
             f"{f(r['phase_margin_deg'], '.1f')}{f(r['crossover_hz'], '.1f')}  "
-            f"{scale}, {at.get('direction', '')}"
+            f"{scale}, {at.get('pose', at.get('direction', ''))}"
         )
     gm_min, pm_min = requirement(rep["structural_mode"])
     if not rep["stable"]:

@@ -13,7 +13,7 @@ from contour_env.env.core import core_of
 
 from .adaptive_ccc import AdaptiveCCCController
 from .ccc import CCCController
-from .five_axis_controllers import FiveAxisPDController, ISMCController
+from .five_axis_controllers import FiveAxisPDController, FiveAxisPIDController, ISMCController
 from .ilc import ILCContourController, ILCPDController
 from .jee_ccc import JeeCCCController
 from .parameters import describe_parameters, spec_kwargs, split_spec
@@ -33,11 +33,17 @@ CONTROLLERS = {
     "fnn": FNNController,
 }
 
-# the five-axis plant's controllers (Chen 2022), a family of their own: ``pd`` there is the
-# paper's joint PD (``make_controller(name, plant_family="five-axis")``); ``ismc`` exists
-# only there (``make_controller("ismc")`` builds it; binding it to a feed-drive env is an
-# error). Kept apart from CONTROLLERS, whose every entry runs on every feed-drive plant.
-FIVE_AXIS_CONTROLLERS = {"pd": FiveAxisPDController, "ismc": ISMCController}
+# the five-axis plant's controllers, a family of their own: ``pd`` there is Chen 2022's joint
+# PD with the paper's gains (``make_controller(name, plant_family="five-axis")``, or the
+# feed-drive ``pd`` bound to a five-axis env); ``pid`` (the tuned joint PID baseline) and
+# ``ismc`` exist only there (``make_controller("pid")`` builds it; binding it to a feed-drive
+# env is a ValueError naming the plant it needs). Kept apart from CONTROLLERS, whose every
+# entry runs on every feed-drive plant.
+FIVE_AXIS_CONTROLLERS = {
+    "pd": FiveAxisPDController,
+    "ismc": ISMCController,
+    "pid": FiveAxisPIDController,
+}
 
 # controllers that learn between trials of a repeated batch (``contour-env ilc``)
 LEARNING_CONTROLLERS = ("ilc-pd", "ilc-contour", "vilcfd")

@@ -46,6 +46,27 @@ INPUT_LIMIT = 3.0  # inputs clipped to ±3 (the outer centres are at ±1)
 THETA_LIMIT = 1.0  # |θ_ij| ≤ 1 (projection; keeps the eq. 23 bound finite)
 N_INPUTS = 2  # (e_p, s_p) per task-frame direction p
 
+# --- options (issue 38; off by default: the shipped law is the paper's) -------------------
+# instant=1: eq. 23 checked at every sample (the paper's Theorem 1 holds "∀ t_k") instead of
+# a priori over every reachable state. The θ step of a sample is scaled down so that the
+# sample's value lr_w Σψ² + lr_theta ‖∂y/∂θ‖² / w_max² stays ≤ EQ23_INSTANT_CAP: 1, the
+# one-step optimum of the quadratic in the proof's ΔV (half the bound 2).
+EQ23_INSTANT_CAP = 1.0
+#: margin=1: the largest incremental stiffness the network may add along a task-frame
+#: direction, in units of the PD's smallest stiffness P (κ of :func:`spread_limit`), per plant:
+#: the largest κ of (0.25, 0.5, 0.75) for which the PD loops with P ± κ P_min and
+#: D ± κ P_min / (3 α) (the network's linearisation at its steepest, both signs) keep the
+#: project's margins, ≥ 6 dB / ≥ 30° over the ±20 % mass corners (agents.margins;
+#: ``python scripts/rfnn_margin_bound.py`` derives the table, a test checks it). Below 1 on
+#: every plant: the network can never cancel the PD's stiffness.
+MARGIN_KAPPA = {
+    "hsm2": 0.75,
+    "linear-motor": 0.75,
+    "friction-table": 0.75,
+    "jee-triaxial": 0.25,
+}
+MARGIN_KAPPA_FALLBACK = 0.25  # a plant not in the table
+
 #: The path the defaults were tuned on (linear motor; not a named case, not a test program):
 #: a 100° arc of radius 0.25 m in a plane tilted 20° about y, 0.03 m/s.
 TUNING_PATH = dict(radius_m=0.25, tilt_deg=20.0, sweep_deg=100.0, feedrate_m_s=0.03)
@@ -85,6 +106,30 @@ def theta_gradient_bound(centres: np.ndarray, sigma2: np.ndarray) -> float:
     N_INPUTS (2 w_max)² (2 D / σ_min²)² = w_max² · 16 N_INPUTS D² / σ_min⁴."""
     D = INPUT_LIMIT + THETA_LIMIT + float(np.max(np.abs(centres)))
     return 16.0 * N_INPUTS * D * D / float(np.min(sigma2)) ** 2
+
+
+def slope_bound(centres: np.ndarray, sigma2: np.ndarray, theta_limit: float) -> float:
+    """c: |∂y/∂x_i| ≤ c (max_j w_j − min_j w_j) for each normalised input x_i, at every state.
+
+    ∂ψ_j/∂x_i = ψ_j (a_ij − Σ_l ψ_l a_il) with a_ij = −2 (u_ij − m_ij) / σ_ij², so
+    ∂y/∂x_i = Σ_j w_j ∂ψ_j/∂x_i is the covariance of w and a_i under the weights ψ, at most
+    (Δw / 2)(Δa_i / 2) in magnitude (Δ: the range over the rules). u_ij − m_ij = x_i +
+    θ_ij O_ij(k−1) − m_ij with |θ O| ≤ ``theta_limit`` (0 for the FNN), so
+    Δa_i ≤ 2 (range_j m_ij + 2 theta_limit) / σ_min², and c = (range m + 2 theta_limit) /
+    (2 σ_min²): 1/4 for the default 4-rule FNN (ψ of one input is then the logistic
+    1 / (1 + e^{−x}), slope 1/4 at 0), 1/2 for the 4-rule RFNN, 1 for the 9-rule FNN."""
+    span = float(np.max(np.ptp(centres, axis=1)))
+    return (span + 2.0 * theta_limit) / (2.0 * float(np.min(sigma2)))
+
+
+def spread_limit(kappa: float, P_min: float, e0: float, c: float) -> float:
+    """The largest rule-weight spread max_j w_j − min_j w_j (N) whose steepest linearisation
+    adds at most κ P_min of stiffness: with x = (e / e0, (ė + α e) / (2 α e0)),
+    |∂y/∂e| ≤ c Δw (1 + 1/2) / e0 and |∂y/∂ė| ≤ c Δw / (2 α e0) = |∂y/∂e|_max / (3 α), so
+    Δw ≤ κ P_min e0 / (1.5 c) (∞ when κ = 0 or c = 0: no bound, or a network without slope)."""
+    if kappa <= 0.0 or c <= 0.0:
+        return math.inf
+    return kappa * P_min * e0 / (1.5 * c)
 
 
 def eq23_value(lr_w: float, lr_theta: float, g_theta: float) -> float:
@@ -143,8 +188,21 @@ class RFNNController(PDController):
     = 2 α e0, α = the PD's bandwidth ω (s = ė + ω e is the PD's slow closed-loop mode), initial
     w = 0 (the network starts as no correction, so ``learn=0`` is the PD loop it sits on) and θ0
     = −1 (the recurrent term's best on the tuning path: 9 % below the FNN's RMS; θ0 = +0.5 was
-    worse than the FNN). Within the eq. 23 bound the θ update is slow (|Δθ| ~ 10⁻³ over an
-    episode): the recurrent network's advantage comes from θ0.
+    worse than the FNN). Within the a-priori eq. 23 bound θ hardly moves (max |Δθ| = 4·10⁻³
+    over lm-circle3d): the bound covers every reachable state (|w_j − y| up to 2 w_max), ~10²
+    above the per-sample value a run meets, so the recurrent network's effect comes from θ0
+    (docs/RFNN.md, "Ablations").
+
+    **Options (issue 38; off by default, the shipped law is the one above).** ``instant=1``
+    checks eq. 23 at every sample, as Theorem 1 states it ("∀ t_k"), instead of a priori: any
+    lr_theta is accepted and a sample's θ step is scaled down so that its eq. 23 value stays
+    ≤ :data:`EQ23_INSTANT_CAP`; θ then learns (``rfnn:theta0=0:instant=1:lr_theta=80``).
+    ``margin=1`` (or ``kappa=κ``) bounds the rule weights' spread per direction by
+    :func:`spread_limit`, so that the network's steepest slope adds at most κ P_min of
+    stiffness (κ from the loop margins, :data:`MARGIN_KAPPA`): without it the network learns a
+    slope of ~10 P near e = 0 on hsm2 and the normal loop chatters at 70–80 Hz. Both run the
+    Python law (the compiled one has neither); ``eq23_peak`` records the largest per-sample
+    eq. 23 value of a Python-loop run.
 
     **Across episodes.** ``reset`` starts the network afresh (w = w0, θ = θ0, no memory);
     with ``keep=True`` it keeps the learnt w and θ and clears only the recurrent memory
@@ -153,8 +211,8 @@ class RFNNController(PDController):
 
     Parameters: bandwidth_rad_s, damping, P, D as :class:`PDController`; n_rules (R, a square),
     lr_w, lr_theta (dimensionless, eq. 23), alpha (1/s, default ω), error_scale_m (e0, m),
-    width (σ per centre spacing), theta0, w0_N (N), online_update (``learn=``), keep
-    (switches).
+    width (σ per centre spacing), theta0, w0_N (N), online_update (``learn=``), keep,
+    eq23_instant (``instant=``), margin_bound (``margin=``) (switches), kappa (≥ 0, explicit κ).
     """
 
     name = "rfnn"
@@ -195,6 +253,25 @@ class RFNNController(PDController):
             "keep the learnt network across episodes (repeated batches; default false)",
             BOOL,
         ),
+        "instant": Param(
+            "eq23_instant",
+            "check eq. 23 at every sample instead of over every reachable state: lr_theta is "
+            "not limited at configuration, a sample's θ step is scaled to keep eq. 23 <= 1 "
+            "(default false; Python loop)",
+            BOOL,
+        ),
+        "margin": Param(
+            "margin_bound",
+            "bound the rule weights' spread so that the network's steepest slope adds at most "
+            "the plant's margin-derived stiffness (MARGIN_KAPPA; default false; Python loop)",
+            BOOL,
+        ),
+        "kappa": Param(
+            "kappa",
+            "that bound with an explicit κ: added stiffness <= κ x the PD's smallest P "
+            "(default 0: none; Python loop)",
+            check=">=0",
+        ),
     }
 
     def __init__(
@@ -209,6 +286,9 @@ class RFNNController(PDController):
         w0_N=DEFAULT_W0_N,
         online_update=True,
         keep=False,
+        eq23_instant=False,
+        margin_bound=False,
+        kappa=None,
         **pd_kwargs,
     ):
         super().__init__(**pd_kwargs)
@@ -237,6 +317,11 @@ class RFNNController(PDController):
                 raise ValueError(f"{label}: must be a number {rule}, got {v!r}")
         if alpha is not None and not (math.isfinite(float(alpha)) and float(alpha) > 0):
             raise ValueError(f"alpha: must be > 0 1/s, got {alpha!r}")
+        if kappa is not None and not (math.isfinite(float(kappa)) and float(kappa) >= 0):
+            raise ValueError(f"kappa: must be a number >= 0, got {kappa!r}")
+        self.eq23_instant = bool(eq23_instant) and self.recurrent
+        self.margin_bound = bool(margin_bound)
+        self._kappa_user = None if kappa is None else float(kappa)
         self._lr_w_user = None if lr_w is None else float(lr_w)
         self._lr_theta_user = None if lr_theta is None else float(lr_theta)
         self._alpha_user = alpha
@@ -251,8 +336,18 @@ class RFNNController(PDController):
         # reciprocals: the law multiplies (a division costs several multiplications)
         self.inv_sigma2 = 1.0 / self.sigma2
         self.g_theta = theta_gradient_bound(self.centres, self.sigma2)
+        self.slope_c = slope_bound(
+            self.centres, self.sigma2, THETA_LIMIT if self.recurrent else 0.0
+        )
+        self.eq23_peak = math.nan
         # a rate given explicitly is checked now, the plant-derived ones when bound
         self._set_rates(self._lr_w_user if self._lr_w_user is not None else 0.0)
+        if self.eq23_instant or self.margin_bound or (self._kappa_user or 0.0) > 0.0:
+            # the compiled law (agents/compiled/laws.py) has neither the per-sample eq. 23
+            # check nor the spread bound: an ``act`` on the instance tells every compiled
+            # runner (agents.compiled.forms.compiled_form, a residual's base included) that
+            # this law is not the compiled one, so the Python law runs
+            self.act = self._act
 
     def _set_rates(self, lr_w: float) -> None:
         """lr_w, lr_theta from the user's values or the defaults, checked against eq. 23."""
@@ -263,7 +358,8 @@ class RFNNController(PDController):
             self.lr_theta = self._lr_theta_user
         else:
             self.lr_theta = LR_THETA_FRACTION * max(2.0 - self.lr_w, 0.0) / self.g_theta
-        value = eq23_value(self.lr_w, self.lr_theta, self.g_theta)
+        # per sample (instant=1): only lr_w is limited a priori (Σψ² ≤ 1), lr_theta per sample
+        value = eq23_value(self.lr_w, 0.0 if self.eq23_instant else self.lr_theta, self.g_theta)
         if value >= 2.0:
             raise ValueError(
                 f"lr_w, lr_theta: outside the convergence bound of Chen & Lee 2020 eq. 23: "
@@ -291,9 +387,21 @@ class RFNNController(PDController):
         # the per-sample update factors: Δw = −k_w e ψ, Δθ = −k_θ e ∂y/∂θ
         self.k_w = self.lr_w / self.sensitivity_m_N
         self.k_theta = self.lr_theta / self.sensitivity_m_N / (self.w_max * self.w_max)
+        # the spread bound (margin=1 / kappa=κ; off by default)
+        if self._kappa_user is not None:
+            self.kappa = self._kappa_user
+        elif self.margin_bound:
+            self.kappa = MARGIN_KAPPA.get(self.nominal.name, MARGIN_KAPPA_FALLBACK)
+        else:
+            self.kappa = 0.0
+        self.spread_max_N = spread_limit(
+            self.kappa, 1.0 / self.sensitivity_m_N, self.error_scale_m, self.slope_c
+        )
 
     def reset(self, mask=None) -> None:
         B, A, R = self.n_envs, self.n_axes, self.n_rules
+        # the largest per-sample eq. 23 value of the episode (Python law; NaN until it runs)
+        self.eq23_peak = math.nan
         fresh = mask is None or not hasattr(self, "w") or self.w.shape[0] != B
         if fresh and (not self.keep or not hasattr(self, "w") or self.w.shape[0] != B):
             self.w = np.full((B, A, R), self.w0_N)
@@ -341,6 +449,9 @@ class RFNNController(PDController):
         return -se, -sd
 
     def act(self, signals: dict) -> np.ndarray:
+        return self._act(signals)
+
+    def _act(self, signals: dict) -> np.ndarray:
         u = super().act(signals)
         B = u.shape[0]
         e, de = self.task_errors(signals)
@@ -356,12 +467,32 @@ class RFNNController(PDController):
         w, theta, memory = self.w[:B], self.theta[:B], self.memory[:B]
         y, psi, O2, d = self.network(x, memory, theta, w)
         if self.online_update:
+            # eq. 23 at this sample, per direction: lr_w ‖∂y/∂w‖² + lr_theta ‖∂y/∂θ‖² / w_max²
+            value = self.lr_w * np.sum(psi * psi, axis=-1)
             if self.recurrent and self.k_theta > 0.0:
                 g = self.theta_gradient(psi, w, y, d, memory)
-                theta[:] = np.clip(
-                    theta - (self.k_theta * e)[..., None, None] * g, -THETA_LIMIT, THETA_LIMIT
-                )
-            w[:] = np.clip(w - (self.k_w * e)[..., None] * psi, -self.w_max, self.w_max)
+                step = (self.k_theta * e)[..., None, None] * g
+                v_theta = self.lr_theta / (self.w_max * self.w_max) * np.sum(g * g, axis=(-2, -1))
+                if self.eq23_instant:
+                    over = value + v_theta > EQ23_INSTANT_CAP
+                    if np.any(over):  # scale this sample's θ step down to the cap
+                        room = np.maximum(EQ23_INSTANT_CAP - value, 0.0)
+                        scale = np.where(over, room / np.where(over, v_theta, 1.0), 1.0)
+                        step = step * scale[..., None, None]
+                        v_theta = v_theta * scale
+                theta[:] = np.clip(theta - step, -THETA_LIMIT, THETA_LIMIT)
+                value = value + v_theta
+            peak = float(np.max(value))
+            if not peak <= self.eq23_peak:  # also the first sample (NaN)
+                self.eq23_peak = peak
+            w_new = w - (self.k_w * e)[..., None] * psi
+            if self.spread_max_N < math.inf:
+                # the spread bound: every weight within ±Δw_max/2 of the output at these
+                # inputs with the new weights (the rules that fire keep what they learnt)
+                half = 0.5 * self.spread_max_N
+                y_new = np.sum(w_new * psi, axis=-1, keepdims=True)
+                w_new = np.clip(w_new, y_new - half, y_new + half)
+            w[:] = np.clip(w_new, -self.w_max, self.w_max)
         if self.recurrent:
             memory[:] = O2
         # the task-frame force y on the axes: F y
@@ -386,11 +517,13 @@ class FNNController(RFNNController):
     COMPILED_LAW = "rfnn"  # the RFNN law with θ = 0 and no recurrence
     recurrent = False
     PARAMETERS = {
-        k: v for k, v in RFNNController.PARAMETERS.items() if k not in ("lr_theta", "theta0")
+        k: v
+        for k, v in RFNNController.PARAMETERS.items()
+        if k not in ("lr_theta", "theta0", "instant")
     }
 
     def __init__(self, **kwargs):
-        for key in ("lr_theta", "theta0"):
+        for key in ("lr_theta", "theta0", "eq23_instant"):
             if kwargs.get(key):
                 raise ValueError(f"{key}: the fnn has no recurrent links (use rfnn)")
         super().__init__(**kwargs)

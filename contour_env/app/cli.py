@@ -337,8 +337,12 @@ def cmd_margins(args) -> int:
     from agents.margins import format_margins, loop_margins, meets_requirement
 
     from ..io import atomic_write_json
+    from ..plants import FIVE_AXIS_PLANT_ALIASES
 
-    rep = loop_margins(
+    analyse = loop_margins
+    if args.plant in FIVE_AXIS_PLANT_ALIASES:  # the joint loops at poses (docs/FIVE_AXIS.md)
+        from agents.five_axis_margins import five_axis_loop_margins as analyse
+    rep = analyse(
         args.controller,
         args.plant,
         ideal=args.ideal,
@@ -568,11 +572,17 @@ def _add_margins_parser(sub) -> None:
         "margins",
         help="gain and phase margins of every loop a controller closes (realistic plant)",
     )
-    p.add_argument("--plant", default="hsm2", help="plant name (default hsm2)")
+    p.add_argument(
+        "--plant",
+        default="hsm2",
+        help="plant name (default hsm2); five-axis (alias nxv560a): each joint loop linearised "
+        "at poses over the A/C travel and along the named paths (docs/FIVE_AXIS.md)",
+    )
     p.add_argument(
         "--controller",
         default="pd",
-        help="controller or variant, e.g. pd, ccc, ccc:wp=3e4, adaptive-ccc, jee-ccc (default pd)",
+        help="controller or variant, e.g. pd, ccc, ccc:wp=3e4, adaptive-ccc, jee-ccc (default "
+        "pd); on the five-axis plant pid, pid:w=80, or pd (the paper's gains)",
     )
     p.add_argument(
         "--structural-mode",

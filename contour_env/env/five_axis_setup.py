@@ -64,7 +64,7 @@ class _NominalView:
             raise NotAFeedDrivePlant(
                 f"plant: the five-axis model has no {name!r} (a controller for the feed-drive "
                 "plants was bound to the five-axis plant); build its five-axis controller "
-                "with agents.make_controller(name, plant_family='five-axis') (pd, ismc)"
+                "with agents.make_controller(name, plant_family='five-axis') (pd, pid, ismc)"
             ) from None
 
 

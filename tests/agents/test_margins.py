@@ -219,13 +219,16 @@ def test_margins_bad_input_is_a_clear_error(argv, needle, capsys):
 
 
 @pytest.mark.parametrize("plant", ["five-axis", "nxv560a"])
-def test_margins_of_the_five_axis_plant_say_there_is_no_tool_yet(plant, capsys):
-    # issue 36 item 14: `contour-env cases` lists five-axis cases; margins has no five-axis
-    # tool yet: one line saying so and naming the plants it has, exit 2 (not "unknown plant")
-    assert main(["margins", "--plant", plant]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "unknown plant" not in err
-    assert f"five-axis plant ('{plant}') has no margins tool yet" in err
-    assert "hsm2, jee-triaxial, linear-motor, friction-table" in err
-    with pytest.raises(ValueError, match="has no margins tool yet"):
+def test_margins_of_the_five_axis_plant_are_its_joint_loops(plant, capsys):
+    # issue 36 item 14 said "no margins tool yet"; issue 38 added one (agents.five_axis_margins,
+    # tests/agents/test_five_axis_pid.py, tests/app/test_margins_five_axis.py): the default
+    # controller pd is there the paper's joint PD
+    assert main(["margins", "--plant", plant, "--mass-variation", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "poses (joint loops)" in out and "joint C" in out and "unknown plant" not in out
+    from agents.five_axis_margins import five_axis_loop_margins
+
+    rep = five_axis_loop_margins("pd", plant, mass_variation=0.0)
+    assert rep["plant"] == "five-axis" and rep["stable"] and meets_requirement(rep)
+    with pytest.raises(ValueError, match="analysed joint by joint"):
         loop_margins("pd", plant)

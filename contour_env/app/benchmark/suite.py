@@ -70,7 +70,9 @@ class Suite:
 # the fixed controllers of the feed-drive plants, in table order; the learning ones after
 FIXED = ("pd", "ccc", "adaptive-ccc", "jee-ccc", "rfnn", "fnn")
 LEARNING = ("ilc-pd", "ilc-contour", "vilcfd")
-FIVE_AXIS = ("pd", "ismc")
+# the five-axis cases' controllers: the paper's PD (Table 2 gains), the tuned joint PID
+# baseline, the paper's ISMC
+FIVE_AXIS = ("pd", "pid", "ismc")
 RESIDUAL = "residual"
 
 
