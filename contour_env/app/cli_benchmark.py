@@ -19,14 +19,15 @@ def add_benchmark_command(subparsers) -> argparse.ArgumentParser:
 
     p = subparsers.add_parser(
         "benchmark",
-        help="the whole benchmark: every case × controller, robustness, ILC; a report beside "
-        "the papers' tables",
+        help="the whole benchmark: every case × controller, robustness, ILC, circular tests; a "
+        "report beside the papers' tables",
     )
     p.add_argument(
         "--suite",
         default="quick",
         help=f"which runs: {', '.join(SUITES)} (default quick: under 2 min; paper: the seed "
-        "papers' published comparisons; full: paper + robustness + ILC + residual agents; "
+        "papers' published comparisons; full: paper + robustness + ILC + residual agents + "
+        "circular tests; "
         "readme: the runs behind the README's tables, readme:NAME[,NAME] some of them)",
     )
     p.add_argument(

@@ -2,6 +2,7 @@
 ``report.html`` (self-contained: the figures embedded, and written as PNGs beside it) and the
 figures. Every table puts the paper's figure, where one exists, in the column next to ours,
 with the ratios to PD side by side, and is followed by a reading generated from its numbers.
+The circular-test section's tables, readings and polar plots come from :mod:`.circular`.
 """
 
 from __future__ import annotations
@@ -14,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import circular
 from .published import RELATIVE, published_for
-from .suite import DESIGN, ILC, NOMINAL, RESIDUAL_RUN, ROBUSTNESS
+from .suite import CIRCULAR, DESIGN, ILC, NOMINAL, RESIDUAL_RUN, ROBUSTNESS
 
 HEADLINE = "rms_contour_error_um"
 # published metrics shown beside ours, in this order, with their column label
@@ -117,6 +119,8 @@ def build_records(results: list[dict], settings: dict, version: dict | None = No
 
 
 def _headline(kind: str) -> str:
+    if kind == CIRCULAR:  # the circular deviation G of the worse direction
+        return circular.HEADLINE
     return "mean_rms_contour_error_um" if kind == ROBUSTNESS else HEADLINE
 
 
@@ -595,7 +599,8 @@ def residual_tables(records: list[dict]) -> list[dict]:
 
 
 def write_figures(records: list[dict], results: list[dict], out: Path) -> list[Path]:
-    """contour error vs time per case, robustness bands per case, ILC learning curves."""
+    """contour error vs time per case, robustness bands per case, ILC learning curves, the
+    circular test's polar plot per plant (:func:`.circular.write_figures`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -657,6 +662,7 @@ def write_figures(records: list[dict], results: list[dict], out: Path) -> list[P
         fig.tight_layout()
         written.append(atomic_save_figure(fig, out / name, dpi=100))
         plt.close(fig)
+    written += circular.write_figures(records, results, out)
     return written
 
 
@@ -670,6 +676,7 @@ def _sections(records):
         ("Repeated-batch ILC", ilc_tables(records)),
         ("Controller design", design_tables(records)),
         ("Residual agents against their bases", residual_tables(records)),
+        ("Circular test (ISO 230-4)", circular.tables(records)),
     ]
 
 
@@ -714,6 +721,8 @@ def render_markdown(records: list[dict], meta: dict) -> str:
         lines += [f"## {title}", ""]
         for t in tables:
             lines += [f"### {t['title']}", ""]
+            if t.get("note"):
+                lines += [t["note"], ""]
             if t["sources"]:
                 lines += ["Paper: " + "; ".join(t["sources"]) + ".", ""]
             lines += _md_table(t["header"], t["rows"]) + [""]
@@ -767,6 +776,8 @@ def render_html(records: list[dict], meta: dict, out: Path) -> str:
         parts.append(f"<h2>{html.escape(title)}</h2>")
         for t in tables:
             parts.append(f"<h3>{html.escape(t['title'])}</h3>")
+            if t.get("note"):
+                parts.append(f"<p>{html.escape(t['note'])}</p>")
             if t["sources"]:
                 parts.append(f"<p>Paper: {html.escape('; '.join(t['sources']))}.</p>")
             parts.append(_html_table(t["header"], t["rows"]))

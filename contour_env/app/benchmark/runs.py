@@ -2,9 +2,9 @@
 
 :func:`execute` takes the spec as a plain dict (what crosses a process or a Ray task) and
 returns ``{"spec", "plant", "metrics", "trace", "wall_s"}`` (the kinds: nominal, robustness,
-ilc, design (:mod:`.design`), residual (:mod:`.residual`)): ``metrics`` JSON-ready, ``trace``
-arrays as lists for the figures (kept out of results.json); a run that raised has ``error``
-(the exception's type and message) and no metrics.
+ilc, design (:mod:`.design`), residual (:mod:`.residual`), circular (:mod:`.circular`)):
+``metrics`` JSON-ready, ``trace`` arrays as lists for the figures (kept out of results.json);
+a run that raised has ``error`` (the exception's type and message) and no metrics.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from .suite import DESIGN, ILC, NOMINAL, RESIDUAL_RUN, ROBUSTNESS, RunSpec
+from .suite import CIRCULAR, DESIGN, ILC, NOMINAL, RESIDUAL_RUN, ROBUSTNESS, RunSpec
 
 # points kept of a time trace for the figures
 TRACE_POINTS = 1500
@@ -156,12 +156,19 @@ def _residual(spec: RunSpec) -> dict:
     return {"plant": plant, "metrics": metrics, "trace": {}}
 
 
+def _circular(spec: RunSpec) -> dict:
+    from .circular import run
+
+    return run(spec.case, spec.controller, spec.settings, spec.seed)
+
+
 _KINDS = {
     NOMINAL: _nominal,
     ROBUSTNESS: _robustness,
     ILC: _ilc,
     DESIGN: _design,
     RESIDUAL_RUN: _residual,
+    CIRCULAR: _circular,
 }
 
 

@@ -3,13 +3,15 @@
 - ``quick`` (< 2 min on a 2-core machine): every named case × every applicable fixed
   controller (nominal plant, seed 0; the learning controllers are scored in the ILC section),
   the paper's variants of those rows (``ccc:wi=0``, ``rfnn:learn=0``), one small robustness
-  sweep (hsm2-circle-II, ±20 %, 8 variations) and one short ILC curve (sharp-corner, 5 trials);
+  sweep (hsm2-circle-II, ±20 %, 8 variations), one short ILC curve (sharp-corner, 5 trials)
+  and the circular test (ISO 230-4) of every named 2- and 3-axis plant (:mod:`.circular`);
 - ``paper``: every published comparison of the seed papers (:mod:`.published`): Lee 2012
   Tables 2–3, Jee 2007's design goal, Chen & Lee 2020 Tables 1–2, Chen 2022's PD vs ISMC and
   Simba 2018's VILCFD vs conventional ILC (10 trials, repeatable and random);
 - ``full``: ``paper`` + every case × every applicable controller (the learning ones' first
   trial too) + robustness over plant variations (every feed-drive case, ±20 %, 32 variations)
-  + ILC curves on three cases + the shipped residual agents on their plants' cases;
+  + ILC curves on three cases + the shipped residual agents on their plants' cases + the
+  circular test of every named 2- and 3-axis plant (as in ``quick``);
 - ``readme``: exactly the runs of the README's generated tables (:data:`README_TABLES`;
   ``scripts/readme_figures.py`` renders them from its results.json): the default gains and
   loop margins (``design`` runs), Lee 2012's circles, the shipped residual agents against
@@ -22,22 +24,25 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from functools import cache
 
+from .circular import KIND as CIRCULAR
+
 NOMINAL = "nominal"
 ROBUSTNESS = "robustness"
 ILC = "ilc"
 DESIGN = "design"
 RESIDUAL_RUN = "residual"
-KINDS = (NOMINAL, ROBUSTNESS, ILC, DESIGN, RESIDUAL_RUN)
+KINDS = (NOMINAL, ROBUSTNESS, ILC, DESIGN, RESIDUAL_RUN, CIRCULAR)
 
 
 @dataclass(frozen=True)
 class RunSpec:
     """One independent run. ``kind``: nominal (one episode), robustness (plant variations),
     ilc (repeated batch), design (default gains and loop margins; ``case`` is the plant's
-    name) or residual (a shipped residual agent against its base on one test contour;
-    ``case`` is the contour, ``variant`` the agent's name); ``variant``: the plant variant
-    (``nominal``, ``random±20%x8``, ``repeatable`` / ``random`` for ILC); ``settings``: the
-    kind's parameters."""
+    name), residual (a shipped residual agent against its base on one test contour;
+    ``case`` is the contour, ``variant`` the agent's name) or circular (the ISO 230-4
+    circular test, CW and CCW; ``case`` is the plant's name, ``variant`` the circle,
+    ``R50mm F0.2m/s``); ``variant``: the plant variant (``nominal``, ``random±20%x8``,
+    ``repeatable`` / ``random`` for ILC); ``settings``: the kind's parameters."""
 
     kind: str
     case: str
@@ -138,6 +143,23 @@ def residual_vs_base(model: str, target: str) -> RunSpec:
     return RunSpec(RESIDUAL_RUN, target, RESIDUAL, 0, model, {"model": model, "target": target})
 
 
+def circular(
+    plant: str, controller: str, radius_m=None, feed_m_s=None, overshoot_deg=None, seed: int = 0
+) -> RunSpec:
+    """The circular test of ``controller`` on ``plant``; the circle (m, m/s, degrees) defaults
+    to the section's (:func:`.circular.circle_settings`)."""
+    from .circular import circle_settings, variant_name
+
+    settings = circle_settings(radius_m, feed_m_s, overshoot_deg)
+    return RunSpec(CIRCULAR, plant, controller, seed, variant_name(settings), settings)
+
+
+def _circular_runs() -> list[RunSpec]:
+    from .circular import section_runs
+
+    return [circular(plant, c) for plant, c in section_runs()]
+
+
 # the rows of the published comparisons (our spec of each paper's controller)
 PAPER_NOMINAL = {
     **{
@@ -178,8 +200,11 @@ def quick_suite() -> Suite:
     runs = _all_nominal(learning=False)
     runs += [robust("hsm2-circle-II", c, 0.2, 8) for c in ("pd", "ccc", "adaptive-ccc")]
     runs += [ilc("sharp-corner", c, "repeatable", 5) for c in ("ilc-contour", "vilcfd")]
+    runs += _circular_runs()
     return Suite(
-        "quick", "every case × fixed controller, a robustness sweep, an ILC curve", _unique(runs)
+        "quick",
+        "every case × fixed controller, a robustness sweep, an ILC curve, the circular tests",
+        _unique(runs),
     )
 
 
@@ -208,8 +233,11 @@ def full_suite() -> Suite:
         for cond in ("repeatable", "random")
         for c in LEARNING
     ]
+    runs += _circular_runs()
     return Suite(
-        "full", "paper + every controller, robustness, ILC curves, residual agents", _unique(runs)
+        "full",
+        "paper + every controller, robustness, ILC curves, residual agents, circular tests",
+        _unique(runs),
     )
 
 
