@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .base import per_axis
@@ -23,6 +25,24 @@ FALLBACK_GAINS = {"W_p": 0.0, "W_i": 0.0, "W_d": 0.0}
 # a tangent turning by more than this within one servo period is a corner (exact stop), not a
 # curve: 0.1 rad per sample is a 10 mm radius at 10 m/s with a 1 ms period
 CORNER_TURN_RAD = 0.1
+
+
+class UntunedGainsWarning(UserWarning):
+    """A controller runs on a plant it has no tuned gains for (a plant file, custom
+    parameters) and falls back to gains that may not suit it."""
+
+
+def warn_untuned(plant_name: str) -> None:
+    """Warn that CCC has no tuned coupling gains for ``plant_name`` (it then adds none: the
+    same commands as PD) and say how to give them and check them."""
+    warnings.warn(
+        f"ccc: no tuned cross-coupling gains for plant {plant_name!r} (tuned: "
+        f"{', '.join(DEFAULT_GAINS)}): W_p = W_i = W_d = 0, the same commands as pd; give them "
+        "as ccc:wp=W_P:wi=W_I (1/s², 1/s³ per unit mass) and check them with contour-env "
+        "margins --plant PLANT --controller ccc:wp=...:wi=... --check",
+        UntunedGainsWarning,
+        stacklevel=3,
+    )
 
 
 def contour_error_estimate(signals: dict) -> tuple[np.ndarray, np.ndarray | None]:
@@ -93,6 +113,8 @@ class CCCController(PDController):
     def configure(self) -> None:
         super().configure()
         defaults = DEFAULT_GAINS.get(self.nominal.name, FALLBACK_GAINS)
+        if self.nominal.name not in DEFAULT_GAINS and all(v is None for v in self._user.values()):
+            warn_untuned(self.nominal.name)
         for key, value in self._user.items():
             v = defaults[key] if value is None else value
             try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
 import numpy as np
 
@@ -400,6 +401,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_circular import add_circular_test_command  # ISO 230-4 circular (ballbar) test
 
     add_circular_test_command(sub)
+    from .cli_machine import add_machine_commands  # identify, excite: your machine
+
+    add_machine_commands(sub)
     return parser
 
 
@@ -678,6 +682,15 @@ def _check_outputs(args) -> None:
                 check(value)
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """The package's warnings (e.g. a controller without tuned gains for a plant file) as one
+    line on stderr, ``warning: ...``; others as Python prints them."""
+    if issubclass(category, UserWarning) and not issubclass(category, DeprecationWarning):
+        print(f"warning: {message}", file=sys.stderr)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line), file=sys.stderr)
+
+
 def main(argv=None) -> int:
     from ..io import OutputPathError
 
@@ -686,7 +699,9 @@ def main(argv=None) -> int:
     np.set_printoptions(precision=4)
     try:
         _check_outputs(args)
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning  # restored on leaving the block
+            return args.func(args)
     except OutputPathError as exc:
         option = _option_of(args, exc.path)
         print(f"error: {option + ': ' if option else ''}{exc}", file=sys.stderr)

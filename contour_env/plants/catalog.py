@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .from_file import is_plant_file, load_plant_file
 from .params import PER_AXIS_FIELDS, PlantParams, params_from_mapping
 
 # HSM2 x axis: rotary servo + leadscrew. Lee 2012 gives J, B in rotary units only; the lead
@@ -268,13 +269,16 @@ def apply_effects(
 
 
 def resolve_plant(plant, *, ideal: bool = False, structural_mode: bool = False, true_scale=None):
-    """Name or mapping → (true params, nominal params, effects description).
+    """Name, mapping or JSON file of parameters (``"plant.json"``, an ``os.PathLike``;
+    :mod:`contour_env.plants.from_file`) → (true params, nominal params, effects description).
 
     ``true_scale`` (named plants only): per-axis factors true = nominal × factor that replace
     the realistic mismatch of those fields (e.g. a payload, ``{"mass_kg": (1.3, 1.3)}``, as
     the ``hsm2-payload`` case uses); every other effect is kept. With ``ideal=True`` they are
     applied to the paper's model (a payload is part of the machine, not an unmodelled effect).
     """
+    if is_plant_file(plant):  # a JSON file of parameters (contour_env.plants.from_file)
+        plant = load_plant_file(plant)
     if true_scale and not isinstance(plant, str):
         raise ValueError("true_scale: only for a named plant (custom parameters are the truth)")
     if isinstance(plant, PlantParams):
