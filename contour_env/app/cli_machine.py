@@ -87,6 +87,31 @@ def format_identification(ident) -> str:
     return "\n".join(lines)
 
 
+def _fit_progress(axes, verbose: bool):
+    """(log, close) for the fit: with ``--verbose`` every line printed; otherwise a progress
+    bar over the axes (on a terminal only) showing the step the fit is at."""
+    if verbose:
+        return (lambda s: print(s, flush=True)), (lambda: None)
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(axes), desc="identify", unit="axis", disable=None, leave=False)
+    begun = [0]
+
+    def log(line: str) -> None:
+        text = line.strip()
+        if text.startswith("axis ") and text.endswith(":"):  # the next axis begins
+            if begun[0]:
+                bar.update(1)
+            begun[0] += 1
+        bar.set_postfix_str(text[:70], refresh=True)
+
+    def close() -> None:
+        bar.update(bar.total - bar.n)
+        bar.close()
+
+    return log, close
+
+
 def cmd_identify(args) -> int:
     from ..identify import identify, parse_columns, read_trace, write_plant
     from ..io import atomic_write_json
@@ -100,16 +125,20 @@ def cmd_identify(args) -> int:
         force_constant=args.force_constant,
         servo_period_s=args.servo_period,
     )
-    ident = identify(
-        trace,
-        friction=not args.no_friction,
-        holdout=args.holdout,
-        max_delay=args.max_delay,
-        force_limit=args.force_limit,
-        encoder_resolution=args.encoder_resolution,
-        max_fit_samples=args.max_samples,
-        log=(lambda s: print(s, flush=True)) if args.verbose else None,
-    )
+    log, close = _fit_progress(trace.axes, args.verbose)
+    try:
+        ident = identify(
+            trace,
+            friction=not args.no_friction,
+            holdout=args.holdout,
+            max_delay=args.max_delay,
+            force_limit=args.force_limit,
+            encoder_resolution=args.encoder_resolution,
+            max_fit_samples=args.max_samples,
+            log=log,
+        )
+    finally:
+        close()
     print(format_identification(ident))
     write_plant(out, ident, name=args.name, input_kind=args.input_kind)
     print(f"wrote {out} (load it with --plant {out}, or gym.make(..., plant={out!r}))")
