@@ -65,7 +65,12 @@ def identify_plant(plant: str, noise_m: float, seed: int, workdir: str, **identi
     true_delay = 1 if true.computation_delay else 0
     rows = []
     for j, fit in enumerate(ident.axes):
-        row = {"axis": fit.axis, "delay": fit.delay_periods, "true_delay": true_delay}
+        row = {
+            "axis": fit.axis,
+            "delay": fit.delay_periods,
+            "true_delay": true_delay,
+            "friction_cost_reduction": fit.friction_cost_reduction,
+        }
         for key, attr in FIELDS.items():
             t = float(getattr(true, attr)[j])
             v = float(fit.values[key])
@@ -168,7 +173,10 @@ def roundtrip(plant: str, noise_m: float, seed: int, workdir: str) -> dict:
 def print_result(r: dict) -> None:
     print(f"{r['plant']} (identified in {r['identify_s']:.1f} s)")
     for row in r["axes"]:
-        parts = [f"  {row['axis']}: delay {row['delay']} (true {row['true_delay']})"]
+        parts = [
+            f"  {row['axis']}: delay {row['delay']} (true {row['true_delay']}), friction lowers "
+            f"the cost by {row['friction_cost_reduction']:.0%}"
+        ]
         for key in FIELDS:
             v = row[key]
             err = (

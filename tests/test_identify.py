@@ -57,6 +57,7 @@ def identified(request, tmp_path_factory):
 def test_parameters_within_tolerance(identified):
     plant, ident, true, _, top = identified
     for j, fit in enumerate(ident.axes):
+        assert fit.friction_cost_reduction >= 0.2  # friction kept: it explains the trace
         for key, tol in TOL.items():
             t = float(getattr(true, FIELD[key])[j])
             v = float(fit.values[key])
@@ -112,3 +113,23 @@ def test_plant_file_loads_everywhere(identified):
     assert params.name == f"identified-{plant}"
     assert params.axis_names == true.axis_names and params.input_kind == true.input_kind
     assert np.allclose(params.mass_kg, true.mass_kg, rtol=0.05)
+
+
+def test_friction_the_trace_cannot_tell_from_none_is_not_identified():
+    """The frictionless textbook hsm2 (no delay, no lag, no friction): a friction curve lowers
+    the fit's cost by a few % only (a static spike below 0.5 mm/s holding dwell windows
+    still), so friction is dropped with a warning; mass, viscous and the delay (0) right."""
+    exc = excite("hsm2", noise_m=NOISE_M, seed=SEED, ideal=True)
+    trace = trace_from_arrays(exc.time_s, exc.simulated_command, exc.simulated_position, exc.axes)
+    ident = identify(trace)
+    true = resolve_plant("hsm2", ideal=True)[0]
+    for j, fit in enumerate(ident.axes):
+        assert "coulomb" not in fit.fitted and fit.values["static"] == 0.0
+        assert 0 <= fit.friction_cost_reduction < 0.2
+        assert fit.delay_periods == 0
+        assert fit.values["mass"] == pytest.approx(true.mass_kg[j], rel=0.05)
+        assert fit.values["viscous"] == pytest.approx(true.viscous_Ns_m[j], rel=0.05)
+    assert sum("friction lowered the fit's cost" in w for w in ident.warnings) == 2
+    mapping = plant_mapping(ident)
+    assert mapping["coulomb"] == [0.0, 0.0] and mapping["static"] == [0.0, 0.0]
+    assert mapping["computation_delay"] is False

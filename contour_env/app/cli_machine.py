@@ -263,7 +263,10 @@ def _add_identify_parser(subparsers) -> None:
     p.add_argument(
         "--no-friction",
         action="store_true",
-        help="fit no Coulomb/static friction (mass, viscous, delay, lag only)",
+        help=(
+            "fit no Coulomb/static friction (mass, viscous, delay, lag only); without it,"
+            " friction is kept on an axis only where it lowers the fit's cost by 20 %% or more"
+        ),
     )
     p.add_argument(
         "--max-delay",

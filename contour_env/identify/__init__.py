@@ -28,13 +28,16 @@ Method, per axis (the fitted part: all but the last ``holdout`` share):
    a reversal) are moved to the nearest clear sample or dropped. Residuals: simulated minus
    measured position and encoder-difference velocity, each scaled by its RMS. All windows and
    all finite-difference perturbations of the parameters run as one batch;
-   :func:`scipy.optimize.least_squares` (trust region, bounds) minimises them.
+   :func:`scipy.optimize.least_squares` (trust region, bounds, Cauchy loss) minimises them.
 3. **Delay** by a discrete search over d = 0 … ``max_delay``: a short fit for each on short
    windows (100 periods), the best two fitted in full (the runner-up again from the winner's
    optimum), the delay then chosen on the short windows, where a delay and a lag differ most.
 4. **Friction curve**: before the full fits, a grid over static friction, its split into
    Coulomb and excess, and the Stribeck velocity (one batch) picks the start: the curve has
-   valleys a local fit stops in.
+   valleys a local fit stops in. After the full fits the model is refitted without friction;
+   friction is kept only where it lowers the cost by 20 % or more (else a warning, and 0).
+   The loss is Cauchy (:data:`.fit.LOSS`): windows replayed open loop through the Stribeck
+   curve's negative slope can run away by millimetres and would otherwise decide the fit.
 5. **Periodic forces**: peaks of the regression residual's periodogram in time (disturbance)
    and in position (ripple), ranked by how much of the output error each explains; the best
    of each kind kept when it lowers the cost by 5 % or more.
@@ -155,6 +158,12 @@ def identify(
         )
     warnings = []
     for f in fits:
+        if f.friction_cost_reduction is not None and "coulomb" not in f.fitted:
+            warnings.append(
+                f"axis {f.axis}: friction lowered the fit's cost by {f.friction_cost_reduction:.1%}"
+                " only (kept from 20 %): not identified, set to 0 — friction the trace cannot "
+                "tell from none"
+            )
         if f.delay_periods > 1:
             warnings.append(
                 f"axis {f.axis}: a delay of {f.delay_periods} servo periods; the package's model "

@@ -46,6 +46,9 @@ class AxisFit:
     window_steps: int
     periodic: dict = field(default_factory=dict)
     plot: dict = field(default_factory=dict, repr=False)
+    # share of the fit's cost the friction curve removed (None: friction not asked for); below
+    # 20 % friction is not identified (``fitted`` without it, its values 0)
+    friction_cost_reduction: float | None = None
 
     def report(self) -> dict:
         return {
@@ -63,6 +66,7 @@ class AxisFit:
             "fit_error": self.fit_error,
             "holdout_error": self.holdout_error,
             "periodic": self.periodic,
+            "friction_cost_reduction": self.friction_cost_reduction,
             "windows": self.n_windows,
             "window_steps": self.window_steps,
         }
