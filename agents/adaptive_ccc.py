@@ -6,8 +6,11 @@ import math
 
 import numpy as np
 
+from contour_env.plants.gains import tuned_gain
+
 from .base import Controller, per_axis
 from .parameters import AXES, BOOL, Param
+from .pd import default_bandwidth, warn_untuned
 
 # Feedback bandwidth ω (rad/s): k_i = 2 m_i ω − b_i and α_i = (m_i ω² − 1) / k_i give the same
 # proportional and derivative action as the PD controller (α k + 1 = m ω², k = 2 m ω − b; Lee
@@ -245,7 +248,14 @@ class AdaptiveCCCController(Controller):
 
     def configure(self) -> None:
         m = self.nominal.mass_kg
-        w = self.bandwidth_rad_s or DEFAULT_BANDWIDTH_RAD_S.get(self.nominal.name, 100.0)
+        w = self.bandwidth_rad_s
+        if w is None:
+            # the plant's tuned PD ω (contour-env tune), else the table, else a warned fallback
+            w = DEFAULT_BANDWIDTH_RAD_S.get(self.nominal.name)
+            if w is None or tuned_gain(self.nominal, "pd", "bandwidth_rad_s") is not None:
+                w, tuned = default_bandwidth(self.nominal)
+                if not tuned:
+                    warn_untuned(self.name, [f"ω = {w:g} rad/s"], self.nominal.name)
         if not (np.isfinite(w) and w > 0):
             raise ValueError(f"bandwidth_rad_s: must be > 0, got {w!r}")
         n = self.n_axes

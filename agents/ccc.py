@@ -2,13 +2,22 @@
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
+
+from contour_env.plants.gains import tuned_gain
 
 from .base import per_axis
 from .parameters import Param
-from .pd import PDController
+from .pd import PDController, UntunedGainsWarning, warn_untuned
+
+__all__ = [
+    "CORNER_TURN_RAD",
+    "DEFAULT_GAINS",
+    "FALLBACK_GAINS",
+    "CCCController",
+    "UntunedGainsWarning",
+    "contour_error_estimate",
+]
 
 # Cross-coupling gains per plant (per unit nominal axis mass: W_p in 1/s², W_i in 1/s³, W_d in
 # 1/s), found by scripts/tune_controllers.py under the margin constraints stated there (gain
@@ -25,24 +34,6 @@ FALLBACK_GAINS = {"W_p": 0.0, "W_i": 0.0, "W_d": 0.0}
 # a tangent turning by more than this within one servo period is a corner (exact stop), not a
 # curve: 0.1 rad per sample is a 10 mm radius at 10 m/s with a 1 ms period
 CORNER_TURN_RAD = 0.1
-
-
-class UntunedGainsWarning(UserWarning):
-    """A controller runs on a plant it has no tuned gains for (a plant file, custom
-    parameters) and falls back to gains that may not suit it."""
-
-
-def warn_untuned(plant_name: str) -> None:
-    """Warn that CCC has no tuned coupling gains for ``plant_name`` (it then adds none: the
-    same commands as PD) and say how to give them and check them."""
-    warnings.warn(
-        f"ccc: no tuned cross-coupling gains for plant {plant_name!r} (tuned: "
-        f"{', '.join(DEFAULT_GAINS)}): W_p = W_i = W_d = 0, the same commands as pd; give them "
-        "as ccc:wp=W_P:wi=W_I (1/s², 1/s³ per unit mass) and check them with contour-env "
-        "margins --plant PLANT --controller ccc:wp=...:wi=... --check",
-        UntunedGainsWarning,
-        stacklevel=3,
-    )
 
 
 def contour_error_estimate(signals: dict) -> tuple[np.ndarray, np.ndarray | None]:
@@ -92,7 +83,9 @@ class CCCController(PDController):
     the force limit (anti-windup).
 
     Parameters: bandwidth_rad_s, damping, P, D as :class:`PDController`; W_p (1/s²), W_i
-    (1/s³), W_d (1/s) per unit nominal axis mass (defaults per plant ``DEFAULT_GAINS``).
+    (1/s³), W_d (1/s) per unit nominal axis mass (defaults: the plant's tuned
+    ``controller_gains`` (``contour-env tune``), else per named plant ``DEFAULT_GAINS``, else 0
+    with an ``UntunedGainsWarning``).
     """
 
     name = "ccc"
@@ -111,10 +104,19 @@ class CCCController(PDController):
         self._user = {"W_p": W_p, "W_i": W_i, "W_d": W_d}
 
     def configure(self) -> None:
-        super().configure()
-        defaults = DEFAULT_GAINS.get(self.nominal.name, FALLBACK_GAINS)
-        if self.nominal.name not in DEFAULT_GAINS and all(v is None for v in self._user.values()):
-            warn_untuned(self.nominal.name)
+        self.configure_pd()
+        name = self.nominal.name
+        defaults = DEFAULT_GAINS.get(name, FALLBACK_GAINS)
+        tuned = {k: tuned_gain(self.nominal, "ccc", k) for k in self._user}
+        if any(v is not None for v in tuned.values()):
+            defaults = {k: 0.0 if v is None else v for k, v in tuned.items()}
+        elif name not in DEFAULT_GAINS and all(v is None for v in self._user.values()):
+            self.untuned.append(
+                "W_p = W_i = W_d = 0 (no cross-coupling: the same commands as pd; give them as "
+                "ccc:wp=W_P:wi=W_I, 1/s² and 1/s³ per unit mass)"
+            )
+        if self.untuned:
+            warn_untuned(self.name, self.untuned, name)
         for key, value in self._user.items():
             v = defaults[key] if value is None else value
             try:

@@ -30,7 +30,7 @@ from contour_env.io import atomic_write_bytes
 
 from .base import Controller
 from .parameters import INT, Param
-from .pd import DEFAULT_BANDWIDTH_RAD_S, PDController
+from .pd import PDController, default_bandwidth
 from .qfilter import (
     ZeroPhaseLowPass,
     axis_plant_model,
@@ -197,7 +197,7 @@ class LearningController(Controller):
         fb = self.feedback
         omega = getattr(fb, "omega", None)
         if omega is None:
-            omega = DEFAULT_BANDWIDTH_RAD_S.get(self.nominal.name, 100.0)
+            omega = default_bandwidth(self.nominal)[0]
         self.omega_L = self.learning_bandwidth_rad_s or float(omega)
         lead = self.lead_steps_arg
         self.lead_steps = 1 + self.computation_delay_steps if lead is None else int(lead)

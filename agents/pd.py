@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+
+from contour_env.plants.gains import tuned_gain
 
 from .base import Controller, per_axis
 from .parameters import AXES, Param
@@ -21,6 +25,40 @@ DEFAULT_BANDWIDTH_RAD_S = {
     "friction-table": 75.0,
 }
 DEFAULT_DAMPING = 1.0
+# ω on a plant with no tuned value (neither named nor tuned by ``contour-env tune``): not
+# margin-checked on it, so PD warns (``UntunedGainsWarning``)
+FALLBACK_BANDWIDTH_RAD_S = 100.0
+
+
+class UntunedGainsWarning(UserWarning):
+    """A controller runs on a plant it has no tuned gains for (a plant file, custom
+    parameters) and falls back to gains that may not suit it."""
+
+
+def default_bandwidth(nominal) -> tuple[float, bool]:
+    """(ω in rad/s, tuned) for the nominal plant parameters: the ω ``contour-env tune``
+    wrote into the plant (``controller_gains.pd``), else the named plant's
+    ``DEFAULT_BANDWIDTH_RAD_S``, else ``FALLBACK_BANDWIDTH_RAD_S`` (tuned = False)."""
+    w = tuned_gain(nominal, "pd", "bandwidth_rad_s")
+    if w is None:
+        w = DEFAULT_BANDWIDTH_RAD_S.get(nominal.name)
+    if w is None:
+        return FALLBACK_BANDWIDTH_RAD_S, False
+    return float(w), True
+
+
+def warn_untuned(controller: str, what: list[str], plant_name: str) -> None:
+    """One warning: ``controller`` has no tuned ``what`` for ``plant_name`` and uses the
+    fallbacks listed; says how to tune them (``contour-env tune``) or give and check them."""
+    warnings.warn(
+        f"{controller}: no tuned gains for plant {plant_name!r} (named plants: "
+        f"{', '.join(DEFAULT_BANDWIDTH_RAD_S)}): {'; '.join(what)}, not margin-checked on it; "
+        "tune them with contour-env tune --plant plant.json --out plant.json, or give them "
+        f"({controller}:...) and check them with contour-env margins --plant plant.json "
+        f"--controller {controller}:... --check",
+        UntunedGainsWarning,
+        stacklevel=4,
+    )
 
 
 class PDController(Controller):
@@ -33,7 +71,9 @@ class PDController(Controller):
     Parameters
     ----------
     bandwidth_rad_s : float, optional
-        ω (rad/s); default per plant from ``DEFAULT_BANDWIDTH_RAD_S``.
+        ω (rad/s); default per plant: the plant's tuned ``controller_gains`` (``contour-env
+        tune``), else ``DEFAULT_BANDWIDTH_RAD_S``, else 100 rad/s with an
+        ``UntunedGainsWarning``.
     damping : float
         ζ (default 1).
     P, D : scalar or per-axis, optional
@@ -62,10 +102,20 @@ class PDController(Controller):
         self._D_user = D
 
     def configure(self) -> None:
+        self.configure_pd()
+        if self.untuned:
+            warn_untuned(self.name, self.untuned, self.nominal.name)
+
+    def configure_pd(self) -> None:
+        """P and D from ω and ζ (or as given); ``self.untuned`` lists what fell back to an
+        untuned value (the caller warns)."""
         m, b = self.nominal.mass_kg, self.nominal.viscous_Ns_m
         w = self.bandwidth_rad_s
+        self.untuned = []
         if w is None:
-            w = DEFAULT_BANDWIDTH_RAD_S.get(self.nominal.name, 100.0)
+            w, tuned = default_bandwidth(self.nominal)
+            if not tuned and (self._P_user is None or self._D_user is None):
+                self.untuned.append(f"ω = {w:g} rad/s")
         if not (np.isfinite(w) and w > 0):
             raise ValueError(f"bandwidth_rad_s: must be > 0, got {w!r}")
         self.omega = float(w)

@@ -115,6 +115,28 @@ def test_plant_file_loads_everywhere(identified):
     assert np.allclose(params.mass_kg, true.mass_kg, rtol=0.05)
 
 
+def test_tuning_the_plant_file_gives_the_true_plants_gains(identified):
+    """``contour-env tune``'s PD search (agents.tuning) on the identified file picks the ω the
+    true plant would: checked on the true plant by loop_margins' full computation, that ω
+    meets the requirement and the next ω of the grid does not, and the margins reported on
+    the file agree with the true plant's within 0.3 dB / 2°: good enough to tune on."""
+    from agents.margins import loop_margins, meets_requirement
+    from agents.pd import PDController
+    from agents.tuning import PD_GRID, tune_pd
+
+    _, _, true, path, _ = identified
+    on_file = tune_pd(Plant(str(path)))
+    w = on_file["bandwidth_rad_s"]
+    rep = loop_margins(PDController(bandwidth_rad_s=w), Plant(true))
+    assert meets_requirement(rep)
+    a = on_file["realistic_margins"]
+    assert a["gain_margin_db"] == pytest.approx(rep["min_gain_margin_db"], abs=0.3)
+    assert a["phase_margin_deg"] == pytest.approx(rep["min_phase_margin_deg"], abs=2.0)
+    if w < PD_GRID[-1]:
+        above = PD_GRID[PD_GRID.index(w) + 1]
+        assert not meets_requirement(loop_margins(PDController(bandwidth_rad_s=above), Plant(true)))
+
+
 def test_friction_the_trace_cannot_tell_from_none_is_not_identified():
     """The frictionless textbook hsm2 (no delay, no lag, no friction): a friction curve lowers
     the fit's cost by a few % only (a static spike below 0.5 mm/s holding dwell windows

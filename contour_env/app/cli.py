@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 import warnings
@@ -404,6 +405,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_machine import add_machine_commands  # identify, excite: your machine
 
     add_machine_commands(sub)
+    from .cli_tune import add_tune_command  # default gains for your plant file
+
+    add_tune_command(sub)
     return parser
 
 
@@ -682,11 +686,18 @@ def _check_outputs(args) -> None:
                 check(value)
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+def _one_line_warning(message, category, filename, lineno, file=None, line=None, seen=None):
     """The package's warnings (e.g. a controller without tuned gains for a plant file) as one
-    line on stderr, ``warning: ...``; others as Python prints them."""
+    line on stderr, ``warning: ...``, each text once per command (``seen``: the texts printed
+    so far; a controller bound for every run of a command warns once); others as Python
+    prints them."""
     if issubclass(category, UserWarning) and not issubclass(category, DeprecationWarning):
-        print(f"warning: {message}", file=sys.stderr)
+        text = str(message)
+        if seen is not None:
+            if text in seen:
+                return
+            seen.add(text)
+        print(f"warning: {text}", file=sys.stderr)
     else:
         print(warnings.formatwarning(message, category, filename, lineno, line), file=sys.stderr)
 
@@ -700,7 +711,8 @@ def main(argv=None) -> int:
     try:
         _check_outputs(args)
         with warnings.catch_warnings():
-            warnings.showwarning = _one_line_warning  # restored on leaving the block
+            # restored on leaving the block
+            warnings.showwarning = functools.partial(_one_line_warning, seen=set())
             return args.func(args)
     except OutputPathError as exc:
         option = _option_of(args, exc.path)

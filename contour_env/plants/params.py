@@ -18,6 +18,8 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from .gains import check_controller_gains
+
 INPUT_KINDS = ("force", "velocity-command")
 
 
@@ -94,6 +96,9 @@ class PlantParams:
         Substeps per servo period used near velocity reversals (stick–slip treatment).
     notes : str
         Where the numbers come from.
+    controller_gains : dict, optional
+        Controller defaults tuned for this plant (``contour-env tune``;
+        :mod:`contour_env.plants.gains`), e.g. ``{"pd": {"bandwidth_rad_s": 80.0}}``.
 
     Custom parameters (a mapping, the env's ``plant_params``) must lie in the physically
     meaningful ranges of :data:`PARAM_RANGES` (mass 1e-6..1e6 kg, force limit 1e-6..1e7 N,
@@ -122,6 +127,7 @@ class PlantParams:
     load_mass_fraction: np.ndarray = field(default=None)
     friction_substeps: int = 20
     notes: str = ""
+    controller_gains: dict = field(default=None)
 
     def __post_init__(self):
         if isinstance(self.axis_names, str) or not isinstance(self.axis_names, (tuple, list)):
@@ -189,6 +195,7 @@ class PlantParams:
                 f"computation_delay: must be True or False, got {self.computation_delay!r}"
             )
         s(self, "computation_delay", bool(self.computation_delay))
+        s(self, "controller_gains", check_controller_gains(self.controller_gains))
         s(self, "friction_substeps", int(self.friction_substeps))
         for arr_name in spec:
             getattr(self, arr_name).setflags(write=False)
@@ -315,7 +322,8 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
     ``force_limit`` (N, required), ``encoder_resolution`` (m), ``servo_period`` (s, required),
     ``current_loop_time_constant`` (s), ``computation_delay`` (bool), ``structural_stiffness``
     (N/m), ``structural_damping`` (N s/m), ``load_mass_fraction``, ``input_kind``,
-    ``friction_substeps``, ``name``. The full field names of :class:`PlantParams` work too.
+    ``friction_substeps``, ``name``, ``notes``, ``controller_gains`` (tuned controller defaults,
+    :mod:`contour_env.plants.gains`). The full field names of :class:`PlantParams` work too.
     Every value must lie in its range of :data:`PARAM_RANGES` (ValueError naming the
     parameter and the range otherwise).
     """
@@ -346,6 +354,8 @@ def params_from_mapping(mapping: Mapping) -> PlantParams:
                     "friction_substeps",
                     "name",
                     "load_mass_fraction",
+                    "notes",
+                    "controller_gains",
                 }
             )
             raise ValueError(f"plant: unknown parameter {key!r}; allowed: {', '.join(allowed)}")
