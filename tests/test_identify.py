@@ -22,6 +22,9 @@ import numpy as np
 import pytest
 
 from agents import make_controller
+from agents.margins import loop_margins, meets_requirement
+from agents.pd import PDController
+from agents.tuning import PD_GRID, tune_pd
 from contour_env import ENV_ID
 from contour_env.circular_test import circular_path, max_circle_feed_m_s
 from contour_env.evaluation import run_episode
@@ -106,25 +109,18 @@ def test_plant_file_reproduces_a_held_out_circle(identified):
     assert rms["file"] == pytest.approx(rms["true"], rel=0.10), rms
 
 
-def test_plant_file_loads_everywhere(identified):
+def test_plant_file_loads_everywhere_and_tunes_like_the_true_plant(identified):
+    """The file loads through gym.make; and ``contour-env tune``'s PD search (agents.tuning) on
+    it picks the ω the true plant would: checked on the true plant by loop_margins' full
+    computation, that ω meets the requirement and the next ω of the grid does not, and the
+    margins reported on the file agree with the true plant's within 0.3 dB / 2° (one test, not
+    two: another test of this module would rebuild the identification on a second worker)."""
     plant, _, true, path, _ = identified
     env = gym.make(ENV_ID, plant=path, path=circular_path(0.01, "cw", 0.0), feedrate_m_s=0.01)
     params = env.unwrapped.plant.params
     assert params.name == f"identified-{plant}"
     assert params.axis_names == true.axis_names and params.input_kind == true.input_kind
     assert np.allclose(params.mass_kg, true.mass_kg, rtol=0.05)
-
-
-def test_tuning_the_plant_file_gives_the_true_plants_gains(identified):
-    """``contour-env tune``'s PD search (agents.tuning) on the identified file picks the ω the
-    true plant would: checked on the true plant by loop_margins' full computation, that ω
-    meets the requirement and the next ω of the grid does not, and the margins reported on
-    the file agree with the true plant's within 0.3 dB / 2°: good enough to tune on."""
-    from agents.margins import loop_margins, meets_requirement
-    from agents.pd import PDController
-    from agents.tuning import PD_GRID, tune_pd
-
-    _, _, true, path, _ = identified
     on_file = tune_pd(Plant(str(path)))
     w = on_file["bandwidth_rad_s"]
     rep = loop_margins(PDController(bandwidth_rad_s=w), Plant(true))
