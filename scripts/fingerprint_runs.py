@@ -3,7 +3,8 @@ controllers too) and the quick suite's robustness and ILC runs: the sha256 of ea
 metrics and figure trace as JSON at full float precision. Two versions of the code give the
 same results to the bit on these runs when their fingerprints match: the check of a
 refactoring (run it on the commit before, then on the change, ``--against`` the first file;
-exit 1 and the runs that differ when any does).
+exit 1 and the runs that differ when any does, or when a run of the earlier file is no longer
+made; runs added since are listed as new, not as differing).
 
     python scripts/fingerprint_runs.py --out FILE [--against FILE] [--only SUBSTRING]
 """
@@ -66,12 +67,21 @@ def main(argv=None):
             ref = json.load(f)
         if a.only:
             ref = {k: v for k, v in ref.items() if a.only in k}
-        keys = sorted(set(ref) | set(out))
-        diff = [k for k in keys if ref.get(k, {}).get("sha256") != out.get(k, {}).get("sha256")]
-        print(f"differ: {len(diff)} of {len(ref)}")
+        common = sorted(set(ref) & set(out))
+        diff = [k for k in common if ref[k].get("sha256") != out[k].get("sha256")]
+        new, gone = sorted(set(out) - set(ref)), sorted(set(ref) - set(out))
+        print(f"differ: {len(diff)} of {len(common)} runs in both files")
         for k in diff:
-            print("  ", k, ref.get(k), out.get(k))
-        return 1 if diff else 0
+            print("  ", k, ref[k], out[k])
+        if new:  # runs added since the earlier file: nothing to compare them with
+            print(f"new: {len(new)} (not in {a.against})")
+            for k in new:
+                print("  ", k)
+        if gone:  # a run that is no longer made is a change
+            print(f"missing: {len(gone)} (in {a.against}, not run now)")
+            for k in gone:
+                print("  ", k)
+        return 1 if diff or gone else 0
     return 0
 
 
