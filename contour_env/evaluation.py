@@ -63,4 +63,9 @@ def run_episode(
 def evaluate(env, policy=None, *, seed: int = 0, compiled: bool | None = None) -> dict:
     """Metrics of one episode of ``policy`` on ``env`` (the project's one scoring function);
     ``compiled`` as :func:`run_episode`."""
-    return score(run_episode(env, policy, seed=seed, compiled=compiled))
+    metrics = score(run_episode(env, policy, seed=seed, compiled=compiled))
+    # a residual agent with an envelope: the share of its decisions taken outside it
+    share = getattr(policy, "outside_envelope_fraction", None)
+    if callable(share) and share() is not None:
+        metrics["outside_envelope_fraction"] = float(share())
+    return metrics

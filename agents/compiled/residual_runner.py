@@ -37,15 +37,18 @@ def run_residual_chunk(
     B = borrowed
     return _run_residual_chunk(
         *borrowed_inputs(law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace),
-        B(a), scale, B(mask), B(weights), path_frame, gate, v_rest, n0, n_periods,
+        B(a), scale, B(mask), B(weights), path_frame, gate, v_rest, n0, n_periods, np.zeros(3),
     )  # fmt: skip
 
 
 @njit(cache=True)
 def _run_residual_chunk(
     law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace, a, scale, mask,
-    weights, path_frame, gate, v_rest, n0, n_periods,
+    weights, path_frame, gate, v_rest, n0, n_periods, sums,
 ):  # fmt: skip
+    """The chunk; ``sums`` (3,) accumulates the env's reward, Σ_i (r_i / scale)² of the
+    applied residual and the periods stepped (what :class:`agents.residual.ResidualWrapper`
+    sums for a step's reward)."""
     kind, fp, st, flim = law_arrays
     z, ax, k = state.z, state.ax, state.k
     ref_pav, frame = path.ref_pav, path.frame
@@ -101,12 +104,15 @@ def _run_residual_chunk(
             fade = scal[kk, 0] / v_rest
             if fade > 1.0:
                 fade = 1.0
+        pen = 0.0
         for i in range(A):
             ri = r[i] * mask[i]
             if gate:
                 ri = ri * g
             if v_rest > 0.0:
                 ri = ri * fade
+            q = ri / scale
+            pen += q * q
             x = action[b, i] + ri
             if x < -1.0:
                 x = -1.0
@@ -118,10 +124,102 @@ def _run_residual_chunk(
         else:
             _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
         record_step(n, b, A, T, n_steps, state, path, trace)
+        sums[0] += out.reward[b]
+        sums[1] += pen
+        sums[2] += 1.0
         n += 1
         if out.terminated[b] or out.truncated[b]:
             return n, 0, 1
     return n, 0, 0
+
+
+@njit(cache=True)
+def run_residual_table(
+    law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace, table, scale,
+    mask, weights, path_frame, gate, v_rest, repeat,
+):  # fmt: skip
+    """Env 0 from its current (reset) state to the end of its episode with the agent's actions
+    read from ``table`` (M, n_act): row m held for the ``repeat`` periods of agent step m (the
+    last row past the end), each chunk :func:`_run_residual_chunk` — the same law, period for
+    period, as an agent deciding ``table[m]`` (what :mod:`agents.teacher` replays its learned
+    correction with). Returns (n, bad): steps recorded, 1 when the base's action was not
+    finite."""
+    B = borrowed
+    args = borrowed_inputs(
+        law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace
+    )  # fmt: skip
+    tab = B(table)
+    msk, wts = B(mask), B(weights)
+    n = 0
+    m = 0
+    last = tab.shape[0] - 1
+    sums = np.zeros(3)
+    while True:
+        row = tab[m] if m < last else tab[last]
+        n, bad, ended = _run_residual_chunk(
+            *args, row, scale, msk, wts, path_frame, gate, v_rest, n, repeat, sums
+        )  # fmt: skip
+        m += 1
+        if bad or ended:
+            return n, bad
+
+
+@njit(cache=True)
+def replay_residual_table(
+    law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace, table, scale,
+    mask, weights, path_frame, gate, v_rest, repeat, penalty, view_args, obs_out, reward_out,
+    moving_out,
+):  # fmt: skip
+    """:func:`run_residual_table` recording what an RL episode of the agent records per agent
+    step m: its raw observation before the step (``obs_out[m]``, :func:`agent_input` without
+    statistics; ``obs_out[M]`` the last one), the step's reward as
+    :class:`agents.residual.ResidualWrapper` computes it (the mean env reward over the step's
+    periods minus ``penalty`` · Σ(r / scale)² / n, ``reward_out[m]``) and whether the
+    reference moved at the decision (``moving_out[m]``). ``view_args``: :func:`agent_input`'s
+    arguments from ``fields`` to ``clip`` (fields, rotate_prev, observe_axes, feed,
+    acc_scale, clip). Returns (agent steps, bad, terminated)."""
+    B = borrowed
+    args = borrowed_inputs(
+        law_arrays, cfg, icfg, state, path, plant, scal, action, out, info, trace
+    )  # fmt: skip
+    tab = B(table)
+    msk, wts = B(mask), B(weights)
+    fields, rotate_prev, observe_axes, feed, acc_scale, clip = view_args
+    A = state.z.shape[1]
+    size = obs_out.shape[1]
+    zero = np.zeros(size)
+    one = np.ones(size)
+    buf = np.zeros((1, size), dtype=np.float32)
+    n_steps = icfg[I_NSTEPS]
+    n = 0
+    m = 0
+    last = tab.shape[0] - 1
+    sums = np.zeros(3)
+    while True:
+        kk = state.k[0] if state.k[0] < n_steps - 1 else n_steps - 1
+        moving_out[m] = scal[kk, 0] > 0.0
+        agent_input(
+            A, out.obs, state.k, n_steps, path.ref_pav, path.frame, fields, rotate_prev,
+            observe_axes, feed, acc_scale, clip, zero, one, np.inf, buf,
+        )  # fmt: skip
+        obs_out[m, :] = buf[0]
+        row = tab[m] if m < last else tab[last]
+        sums[:] = 0.0
+        n, bad, ended = _run_residual_chunk(
+            *args, row, scale, msk, wts, path_frame, gate, v_rest, n, repeat, sums
+        )  # fmt: skip
+        if bad:
+            return m, 1, 0
+        steps = sums[2] if sums[2] > 0 else 1.0
+        reward_out[m] = (sums[0] - penalty * sums[1] / A) / steps
+        m += 1
+        if ended:
+            agent_input(
+                A, out.obs, state.k, n_steps, path.ref_pav, path.frame, fields, rotate_prev,
+                observe_axes, feed, acc_scale, clip, zero, one, np.inf, buf,
+            )  # fmt: skip
+            obs_out[m, :] = buf[0]
+            return m, 0, 1 if out.terminated[0] else 0
 
 
 @njit(cache=True)
@@ -244,29 +342,49 @@ class ResidualForm:
             np.zeros((1, size), dtype=np.float32),
         )  # fmt: skip
 
+    def envelope_args(self):
+        """The arguments of :func:`agents.envelope.envelope_factor` for the bound core, or None
+        when the agent has no envelope (or does not use it)."""
+        agent, core = self.agent, self._core
+        if not agent.use_envelope:
+            return None
+        env = agent.envelope
+        return (
+            int(core.dim), core.k, int(core.n_steps), core.scal, core.ref_pav, core.obs,
+            float(core.config.error_obs_scale_m), env.bounds(), float(env.margin),
+        )  # fmt: skip
+
     def run_single(self, core, rec_time, rec_eps, rec_pos, rec_ref, rec_force) -> tuple:
+        from ..envelope import envelope_factor
+
         agent = self.agent
         self.begin(core)
         recs = (rec_time, rec_eps, rec_pos, rec_ref, rec_force)
         n, bad, ended = 0, 0, 0
         fast = self.input_args()
+        fence = self.envelope_args()
         if fast is not None:
             actor, x = agent._actor, fast[-1]
             while not (bad or ended):
                 agent_input(*fast)
-                n, bad, ended = self.advance(actor(x)[0], n, recs)
+                a = actor(x)
+                if fence is not None:
+                    a = agent.fade_action(a, envelope_factor(*fence))
+                n, bad, ended = self.advance(a[0], n, recs)
         else:
             while not (bad or ended):
                 sig = core.signals_batch()
-                a = agent.agent_action(core.obs[:1], sig, None)[0]
-                n, bad, ended = self.advance(a, n, recs)
+                a = agent.agent_action(core.obs[:1], sig, None)
+                if fence is not None:
+                    a = agent.fade_action(a, envelope_factor(*fence))
+                n, bad, ended = self.advance(a[0], n, recs)
         self.finish()
         return int(n), bool(bad)
 
 
 def warm_up() -> None:
-    """Compile :func:`run_residual_chunk` and :func:`agent_input` for 2- and 3-axis plants
-    (``contour-env warm``)."""
+    """Compile :func:`run_residual_chunk`, :func:`run_residual_table` and :func:`agent_input`
+    for 2- and 3-axis plants (``contour-env warm``)."""
     import gymnasium as gym
 
     from contour_env import ENV_ID
@@ -289,6 +407,11 @@ def warm_up() -> None:
         run_residual_chunk(
             *form._core_args(core), trace, np.zeros(A + 1), 0.05, np.ones(A), np.ones(A), True,
             True, 0.001, 0, 3,
+        )  # fmt: skip
+        env.reset(seed=0)
+        run_residual_table(
+            *form._core_args(core), trace, np.zeros((2, A + 1)), 0.05, np.ones(A), np.ones(A),
+            True, True, 0.001, 2,
         )  # fmt: skip
         m = core.obs_dim + 2 * A
         agent_input(

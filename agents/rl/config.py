@@ -44,7 +44,7 @@ from pathlib import Path
 from agents.algos import ALGOS, JAX_ALGOS, ON_POLICY  # noqa: F401 (re-exported)
 from agents.records import attributes
 from agents.registry import controller_names
-from agents.residual import DEFAULT_SCALE, OBSERVATIONS, RESIDUAL_AXES
+from agents.residual import OBSERVATIONS, RESIDUAL_AXES, default_scale
 from agents.residual_law import RESIDUAL_FRAMES
 
 from .families import check_families
@@ -97,9 +97,14 @@ class TrainConfig:
     seed: int = 0
     n_envs: int | None = None
     # residual law (agents.residual)
-    scale: float = DEFAULT_SCALE
+    # residual authority, fraction of the force limit (None: the plant's default,
+    # agents.residual.default_scale: 0.10 on the linear motor, 0.05 elsewhere)
+    scale: float | None = None
     observe_base_command: bool = False
-    observation: str = "full"
+    # what the agent sees (agents.residual.observation_fields): "state", every field of the
+    # env's observation but the previous action (the default since issue 48: a student of the
+    # teacher that sees its previous action copies it), "full", "errors"
+    observation: str = "state"
     action_repeat: int | None = None
     residual_penalty: float = 1.0
     # which axes take a residual: "path" (the axes the path uses) or "all"
@@ -112,6 +117,10 @@ class TrainConfig:
     observe_axes: bool = True
     # no residual while the reference stands still (agents.residual_law, "At rest")
     fade_at_rest: bool = True
+    # the reward pays max_penalty per unit of the reward's scale by which the contour error
+    # exceeds the base's max on the part (issue 48: RL on the error alone traded a higher max
+    # for a lower RMS on friction-table validation parts; 0 in configurations before it)
+    max_penalty: float = 10.0
     # the reward's error scale per task: "base" (the base's RMS contour error on the part:
     # r = -eps / eps_base, every part weighs the same) or "fixed" (the env's 10 um)
     reward_scale: str = "base"
@@ -135,6 +144,10 @@ class TrainConfig:
     # most 1 − keep_min_gain (and no part is worse): a checkpoint barely better on average has
     # no margin on parts it never saw (agents/rl/validation.py)
     keep_min_gain: float = 0.10
+    # ... and no validation part's max contour error may exceed keep_max_ratio × the base's: a
+    # tolerance is a max, and an agent that lowers the RMS while raising the max has not helped
+    # (issue 48; inf in configurations written before it)
+    keep_max_ratio: float = 1.0
     # learner
     net_arch: tuple = (64, 64)
     learning_rate: float = 3e-4
@@ -163,6 +176,19 @@ class TrainConfig:
     checkpoint_freq: int | None = None
     keep_checkpoints: int = 2
     torch_threads: int = 1
+    # the teacher (agents/teacher.py, issue 48): "ilc-contour" learns a correction per training
+    # part by ILC on top of the base in the agent's action space; the actor is pretrained on it
+    # by regression, the critic warmed and the replay buffer filled with its transitions, then
+    # RL fine-tunes (fine_tune); "none": RL from scratch (the recipe before issue 48)
+    # (None: "ilc-contour" for sb3's algorithms, "none" for the JAX ones, which it does not
+    # pretrain)
+    teacher: str | None = None
+    teacher_parts: int = 60
+    teacher_trials: int = 30
+    # RL after the teacher's pretraining (False: the pretrained student is the candidate)
+    fine_tune: bool = True
+    # the agent fades its gate outside the ranges it was trained on (agents/envelope.py)
+    envelope: bool = True
     extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -180,6 +206,8 @@ class TrainConfig:
             object.__setattr__(self, key, tuple(getattr(self, key)))
         self._check_choices()
         self._check_gcode_and_plant()
+        if self.scale is None:
+            object.__setattr__(self, "scale", default_scale(self.plant_name))
         self._check_counts()
         self._check_numbers()
         self._check_paths()
@@ -217,7 +245,18 @@ class TrainConfig:
                 f"reward_scale: must be one of {', '.join(REWARD_SCALES)}, got "
                 f"{self.reward_scale!r}"
             )
-        for key in ("gate", "observe_axes", "fade_at_rest"):
+        from agents.teacher import check_teacher
+
+        if self.teacher is None:
+            default = "none" if str(self.algo).startswith("sbx") else "ilc-contour"
+            object.__setattr__(self, "teacher", default)
+        check_teacher(self.teacher)
+        if self.teacher != "none" and self.algo.startswith("sbx"):
+            raise ValueError(
+                f"teacher: {self.teacher!r} pretrains sb3's sac, td3 or ppo, not {self.algo} "
+                "(use --teacher none with the JAX algorithms)"
+            )
+        for key in ("gate", "observe_axes", "fade_at_rest", "fine_tune", "envelope"):
             if not isinstance(getattr(self, key), bool):
                 raise ValueError(f"{key}: expected true or false, got {getattr(self, key)!r}")
 
@@ -256,6 +295,8 @@ class TrainConfig:
         _int(self, "keep_checkpoints", 1)
         _int(self, "validation_paths", 0)
         _int(self, "torch_threads", 1)
+        _int(self, "teacher_parts", 1)
+        _int(self, "teacher_trials", 1)
         _seconds_or_none(self, "time_budget_s")
         _seconds_or_none(self, "eval_every_s")
         gs = self.gradient_steps
@@ -286,9 +327,13 @@ class TrainConfig:
             ("keep_min_gain", 0.0, 0.99),
         ):
             _num(self, key, lo, hi, open_low=(key in ("scale",)))
-        for key in ("residual_penalty", "w_contour", "w_lag", "w_effort"):
+        for key in ("residual_penalty", "w_contour", "w_lag", "w_effort", "max_penalty"):
             _num(self, key, 0.0, math.inf)
         _num(self, "learning_rate", 0.0, 1.0, open_low=True)
+        v = self.keep_max_ratio
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 1.0:
+            raise ValueError(f"keep_max_ratio: must be a number >= 1 (or inf), got {v!r}")
+        object.__setattr__(self, "keep_max_ratio", float(v))
         if self.learning_rate_final is not None:
             _num(self, "learning_rate_final", 0.0, self.learning_rate, open_low=True)
         _num(self, "spline_size_m", 0.0, 10.0, open_low=True)
@@ -368,6 +413,10 @@ class TrainConfig:
     def checkpoint_every(self) -> int:
         return self.checkpoint_freq or max(1000, self.timesteps // 5)
 
+    def teacher_kwargs(self) -> dict:
+        """Keyword arguments of :class:`agents.teacher.ResidualTeacher`."""
+        return {"max_trials": self.teacher_trials}
+
     def env_config(self) -> dict:
         """Reward keywords of the env."""
         return {"w_contour": self.w_contour, "w_lag": self.w_lag, "w_effort": self.w_effort}
@@ -409,6 +458,11 @@ class TrainConfig:
         data.setdefault("reward_scale", "fixed")
         # ... and before the minimum gain of keep-best: any eligible checkpoint better on average
         data.setdefault("keep_min_gain", 0.0)
+        # ... and before the teacher and the envelope (issue 48): RL from scratch, no envelope
+        data.setdefault("teacher", "none")
+        data.setdefault("keep_max_ratio", math.inf)
+        data.setdefault("max_penalty", 0.0)
+        data.setdefault("envelope", False)
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:

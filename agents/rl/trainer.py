@@ -98,6 +98,10 @@ def _model_kwargs(cfg: TrainConfig, n_actions: int) -> dict:
             kw["train_freq"] = cfg.train_freq
         if cfg.gradient_steps is not None:
             kw["gradient_steps"] = cfg.gradient_steps
+        if cfg.algo == "sac" and cfg.teacher != "none":
+            from .pretrain import TEACHER_ENT_COEF_INIT
+
+            kw["ent_coef"] = TEACHER_ENT_COEF_INIT
         if cfg.algo == "td3":
             from stable_baselines3.common.noise import NormalActionNoise
 
@@ -154,6 +158,10 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
         "gcode": [os.path.basename(f) for f in cfg.gcode],
         "timesteps": int(timesteps),
         "seed": cfg.seed,
+        "teacher": cfg.teacher,
+        "envelope": (
+            venv.envelope.to_dict() if cfg.envelope and venv.envelope is not None else None
+        ),
     }
 
 
@@ -240,6 +248,12 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
     sampler = TaskSampler(cfg, cfg.seed)
     raw, venv = _build_envs(cfg, sampler, ckpt)
     model = _build_model(cfg, out, raw, venv, ckpt, log)
+    raw.track_envelope = cfg.envelope
+    teach = None
+    if ckpt is None and cfg.teacher != "none":
+        teach = _teach(cfg, out, raw, venv, model, log, progress)
+    elif ckpt is not None:
+        _resume_envelope(raw, ckpt)
     rate = _anneal_learning_rate(cfg, model)
     t_scoring = time.perf_counter()
     evaluator = Evaluator(sampler, cfg) if sampler.nominal_tasks() else None
@@ -251,17 +265,26 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         cfg, out, log, run_t0, raw, venv, model, curve, val_curve, evaluator, validator, best
     )
 
+    if teach is not None:
+        # the teacher and the pretraining are training time (the time budget covers them)
+        run.clock["prior"] += teach["seconds"]
+        if validator is not None:
+            t_val = time.perf_counter()
+            run.validate(run.train_s())  # the pretrained student: keep-best's first candidate
+            run.val_curve[-1]["wall_s"] = run.wall_s()
+            run.clock["eval"] += time.perf_counter() - t_val
     hooks = _Hooks(run, rate, progress)
     log(expected_time_line(cfg, None, run.train_s(), model.num_timesteps, measured=False))
     t0 = time.perf_counter()
     remaining = cfg.timesteps - model.num_timesteps
-    model.learn(
-        total_timesteps=remaining,
-        callback=hooks,
-        reset_num_timesteps=ckpt is None,
-        tb_log_name=cfg.algo,
-        progress_bar=False,
-    )
+    if cfg.fine_tune and (cfg.time_budget_s is None or run.train_s() < cfg.time_budget_s):
+        model.learn(
+            total_timesteps=remaining,
+            callback=hooks,
+            reset_num_timesteps=ckpt is None,
+            tb_log_name=cfg.algo,
+            progress_bar=False,
+        )
     wall = time.perf_counter() - t0
     ts = run.train_s()
     final_rms, final_eval_s = run.score_final(ts)
@@ -283,6 +306,7 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         "base_rms_contour_error_um": evaluator.base_rms if evaluator is not None else None,
         "final_rms_contour_error_um": final_rms,
         "curve": curve,
+        "teacher": teach["record"] if teach is not None else None,
     }
     summary.update(_write_kept_model(out, cfg, final_dir, best, validator, val_curve, summary))
     if evaluator is not None:
@@ -297,6 +321,76 @@ def train(config: TrainConfig, out_dir, *, resume: bool = False, progress: bool 
         f"periodic {run.clock['eval']:.1f} s, final {final_eval_s:.1f} s)"
     )
     return summary
+
+
+def _teach(cfg: TrainConfig, out: Path, raw, venv, model, log, progress: bool) -> dict:
+    """The teacher's lessons on the training parts, the student's actor fitted to them, the
+    critic warmed and the replay buffer filled (:mod:`agents.rl.teacher_data`,
+    :mod:`agents.rl.pretrain`); writes ``teacher.json``; returns {"seconds", "record"}."""
+    from .pretrain import fill_replay_buffer, pretrain_actor, set_statistics, warm_critic
+    from .teacher_data import collect
+
+    t0 = time.perf_counter()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=cfg.teacher_parts, unit="part", desc=f"teacher ({cfg.teacher})")
+
+    def tick(entry):
+        if bar is not None:
+            bar.update(1)
+            if entry.get("completed") and entry.get("base_rms_um"):
+                bar.set_postfix(rms_ratio=f"{entry['rms_um'] / entry['base_rms_um']:.2f}")
+
+    try:
+        data = collect(cfg, cfg.teacher_parts, progress=tick, log=None)
+    finally:
+        if bar is not None:
+            bar.close()
+    summary = data.summary()
+    log(
+        f"teacher ({cfg.teacher}): {summary['completed']} of {summary['parts']} parts, "
+        f"{summary['trials']} trials, {summary['samples']} samples in {summary['seconds']:.0f} s;"
+        f" its RMS / max contour error {summary['mean_rms_ratio']:.3f} / "
+        f"{summary['mean_max_ratio']:.3f}x the base's on average"
+    )
+    if cfg.envelope and data.envelope is not None:
+        raw.envelope = data.envelope.copy()
+    set_statistics(venv, data.obs)
+    g = raw.groups[0]
+    # the regression's share of a time budget: at most a sixth of it (its best epoch comes
+    # early: 2–10 of 60 on the plants' training families)
+    seconds = None if cfg.time_budget_s is None else cfg.time_budget_s / 6
+    fit = pretrain_actor(
+        model, venv, data, n_axes=int(g.n_axes), gate=cfg.gate,
+        path_frame=cfg.residual_frame == "path", seed=cfg.seed, seconds=seconds, log=log,
+    )  # fmt: skip
+    stored = fill_replay_buffer(model, data)
+    critic = warm_critic(model, venv, log=log) if stored else {"critic_steps": 0}
+    record = {
+        "teacher": cfg.teacher,
+        **summary,
+        "replay_buffer_rows": stored,
+        "actor": fit,
+        "critic": critic,
+        "lessons": data.lessons,
+    }
+    atomic_write_json(out / "teacher.json", record)
+    return {"seconds": time.perf_counter() - t0, "record": {k: v for k, v in record.items()
+                                                             if k != "lessons"}}  # fmt: skip
+
+
+def _resume_envelope(raw, ckpt: Path) -> None:
+    """The envelope so far of a resumed run (the checkpoint's agent.json)."""
+    from ..envelope import Envelope
+
+    meta_path = ckpt / "agent.json"
+    if not meta_path.is_file():
+        return
+    meta = json.loads(meta_path.read_text())
+    if meta.get("envelope"):
+        raw.envelope = Envelope.from_dict(meta["envelope"], int(meta["n_axes"]))
 
 
 def _open_run_dir(cfg: TrainConfig, out: Path, resume: bool):
@@ -345,7 +439,7 @@ def _build_envs(cfg: TrainConfig, sampler: TaskSampler, ckpt):
 
     raw = ResidualTrainVecEnv(
         sampler, cfg.num_envs, cfg.wrapper_kwargs(), seed=cfg.seed + 1,
-        reward_scale=cfg.reward_scale,
+        reward_scale=cfg.reward_scale, max_penalty=cfg.max_penalty,
     )  # fmt: skip
     monitored = VecMonitor(raw)
     if ckpt is not None:
@@ -502,11 +596,13 @@ class _Run:
         it if it is the best so far."""
         validator, best = self.validator, self.best
         t = int(self.model.num_timesteps)
+        validator.last_max = None
         rms, per_path = validator(self.meta_now(), self.model, normalizer_of(self.venv))
-        point = curve_point(t, rms, per_path, validator)
+        per_max = validator.last_max
+        point = curve_point(t, rms, per_path, validator, per_max)
         point["train_s"] = ts
         self.val_curve.append(point)
-        score, eligible = validator.judge(per_path)
+        score, eligible = validator.judge(per_path, per_max)
         if best.offer(t, rms, score, eligible, lambda d: self.write_files(d, False)):
             self.log(
                 f"validation: new best {rms:.4g} µm, {score:.3f}x the base on average, at {t} "

@@ -60,42 +60,64 @@ class Validator:
         )
         self.env_config = cfg.env_config()
         self.min_gain = float(cfg.keep_min_gain)
-        self.base_per_path = [self._score(p, make_controller(cfg.base)) for p in self.paths]
+        self.max_ratio = float(cfg.keep_max_ratio)
+        base = [self._score(p, make_controller(cfg.base)) for p in self.paths]
+        self.base_per_path = [rms for rms, _ in base]
+        self.base_max_per_path = [mx for _, mx in base]
         self.base_rms = _mean(self.base_per_path)
+        # the max contour error per path (µm) of the last policy scored (None: not scored)
+        self.last_max = None
 
-    def _score(self, part, policy) -> float:
+    def _score(self, part, policy) -> tuple[float, float]:
         env = gym.make(ENV_ID, **part.env_kwargs(), **self.env_config)
         m = evaluate(env, policy, seed=part.reset_seed)
-        rms = m["rms_contour_error_um"]
-        return math.inf if rms is None or not m["completed"] else float(rms)
+        rms, mx = m["rms_contour_error_um"], m["max_contour_error_um"]
+        if rms is None or not m["completed"]:
+            return math.inf, math.inf
+        return float(rms), float(mx)
 
     def __call__(self, meta: dict, model, normalizer) -> tuple[float, list]:
         agent = ResidualAgent.from_parts(meta, model, normalizer)
-        per_path = [self._score(p, agent) for p in self.paths]
+        scored = [self._score(p, agent) for p in self.paths]
+        per_path = [rms for rms, _ in scored]
+        self.last_max = [mx for _, mx in scored]
         return _mean(per_path), per_path
 
     def ratios(self, per_path: list) -> list:
         """Agent / base RMS per path (∞ where the agent did not complete a path the base did;
         1 where neither did, 0 where only the base failed)."""
-        out = []
-        for a, b in zip(per_path, self.base_per_path, strict=True):
-            if not math.isfinite(b):
-                out.append(1.0 if not math.isfinite(a) else 0.0)
-            elif not math.isfinite(a):
-                out.append(math.inf)
-            else:
-                out.append(a / b if b > 0 else (1.0 if a == 0 else math.inf))
-        return out
+        return _ratios(per_path, self.base_per_path)
 
-    def judge(self, per_path: list) -> tuple[float, bool]:
-        """(score, eligible): the mean ratio to the base, and whether no path is worse and the
-        mean is at most 1 − ``keep_min_gain``."""
+    def max_ratios(self, per_path_max: list) -> list:
+        """Agent / base max contour error per path (as :meth:`ratios`)."""
+        return _ratios(per_path_max, getattr(self, "base_max_per_path", None) or [])
+
+    def judge(self, per_path: list, per_path_max: list | None = None) -> tuple[float, bool]:
+        """(score, eligible): the mean RMS ratio to the base, and whether no path is worse in
+        RMS, none has a max contour error above ``keep_max_ratio`` × the base's (when
+        ``per_path_max`` is given) and the mean is at most 1 − ``keep_min_gain``."""
         r = self.ratios(per_path)
         score = _mean(r)
-        return score, bool(all(x <= 1.0 for x in r) and score <= 1.0 - self.min_gain)
+        ok = all(x <= 1.0 for x in r) and score <= 1.0 - self.min_gain
+        limit = getattr(self, "max_ratio", math.inf)
+        if per_path_max is not None and math.isfinite(limit):
+            ok = ok and all(x <= limit for x in self.max_ratios(per_path_max))
+        return score, bool(ok)
 
     def describe(self) -> list[dict]:
         return [p.describe() for p in self.paths]
+
+
+def _ratios(agent: list, base: list) -> list:
+    out = []
+    for a, b in zip(agent, base, strict=True):
+        if not math.isfinite(b):
+            out.append(1.0 if not math.isfinite(a) else 0.0)
+        elif not math.isfinite(a):
+            out.append(math.inf)
+        else:
+            out.append(a / b if b > 0 else (1.0 if a == 0 else math.inf))
+    return out
 
 
 def _mean(values) -> float:
@@ -168,6 +190,10 @@ def validation_record(validator: Validator, base: str, curve: list, best: BestKe
         "base": base,
         "base_rms_contour_error_um": _json_number(validator.base_rms),
         "base_per_path_um": [_json_number(x) for x in validator.base_per_path],
+        "base_max_per_path_um": [
+            _json_number(x) for x in getattr(validator, "base_max_per_path", None) or []
+        ],
+        "keep_max_ratio": _json_number(getattr(validator, "max_ratio", math.inf)),
         "paths": validator.describe(),
         "curve": curve,
         "best": {
@@ -181,15 +207,23 @@ def validation_record(validator: Validator, base: str, curve: list, best: BestKe
     }
 
 
-def curve_point(timesteps: int, rms: float, per_path: list, validator=None) -> dict:
+def curve_point(
+    timesteps: int, rms: float, per_path: list, validator=None, per_path_max=None
+) -> dict:
     point = {
         "timesteps": int(timesteps),
         "rms_contour_error_um": _json_number(rms),
         "per_path_um": [_json_number(x) for x in per_path],
     }
+    if per_path_max is not None:
+        point["per_path_max_um"] = [_json_number(x) for x in per_path_max]
     if validator is not None:
-        score, eligible = validator.judge(per_path)
+        score, eligible = validator.judge(per_path, per_path_max)
         point["ratio_to_base"] = [_json_number(x) for x in validator.ratios(per_path)]
+        if per_path_max is not None:
+            point["max_ratio_to_base"] = [
+                _json_number(x) for x in validator.max_ratios(per_path_max)
+            ]
         point["score"] = _json_number(score)
         point["eligible"] = eligible
     return point

@@ -27,6 +27,26 @@ from ..residual import ResidualVectorWrapper
 MIN_REWARD_SCALE_M = 1e-7
 
 
+def base_error_figures(task: dict, base: str) -> tuple[float, float]:
+    """(RMS, max) contour error of the base on the task (m; seed 0, the compiled loop where it
+    applies): the reward's scale (at least :data:`MIN_REWARD_SCALE_M`) and the cap above which
+    the max penalty acts (:class:`agents.residual.ResidualVectorWrapper`'s ``error_cap_m``);
+    (10 µm, ∞) when the base does not complete the task."""
+    from contour_env.evaluation import evaluate
+
+    from ..registry import make_controller
+
+    kw = dict(task)
+    params = kw.pop("plant_params", None)
+    if params is not None:
+        kw["plant_params"] = params[:1]
+    m = evaluate(gym.make(ENV_ID, **kw), make_controller(base))
+    rms = m["rms_contour_error_um"]
+    if rms is None or not np.isfinite(rms) or not m["completed"]:
+        return 10e-6, np.inf
+    return max(float(rms) * 1e-6, MIN_REWARD_SCALE_M), float(m["max_contour_error_um"]) * 1e-6
+
+
 def base_error_scale(task: dict, base: str) -> float:
     """The base controller's RMS contour error (m) on the task (seed 0, the compiled loop where
     it applies), at least :data:`MIN_REWARD_SCALE_M`: the task's reward scale with
@@ -48,28 +68,42 @@ def base_error_scale(task: dict, base: str) -> float:
     return max(float(rms) * 1e-6, MIN_REWARD_SCALE_M)
 
 
-def make_residual_vec(task: dict, n: int, wrapper_kwargs: dict, reward_scale="fixed"):
+def make_residual_vec(
+    task: dict, n: int, wrapper_kwargs: dict, reward_scale="fixed", max_penalty: float = 0.0
+):  # fmt: skip
     """The residual vector env of ``n`` envs on ``task``; with ``reward_scale="base"`` the
-    env's ``contour_error_scale_m`` is the base's RMS contour error on the task."""
+    env's ``contour_error_scale_m`` is the base's RMS contour error on the task, and with
+    ``max_penalty`` > 0 the wrapper's reward pays that much per unit of that scale by which
+    the contour error exceeds the base's max on the task."""
     kw = dict(task)
-    if reward_scale == "base":
-        kw["contour_error_scale_m"] = base_error_scale(task, wrapper_kwargs["base"])
+    cap = np.inf
+    if reward_scale == "base" or max_penalty > 0:
+        scale, cap = base_error_figures(task, wrapper_kwargs["base"])
+        if reward_scale == "base":
+            kw["contour_error_scale_m"] = scale
     params = kw.pop("plant_params", None)
     if params is not None and len(params) != n:
         params = [params[i % len(params)] for i in range(n)]
     venv = gym.make_vec(
         ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", plant_params=params, **kw
     )
-    return ResidualVectorWrapper(venv, autoreset_mode="same_step", **wrapper_kwargs)
+    w = ResidualVectorWrapper(venv, autoreset_mode="same_step", **wrapper_kwargs)
+    if max_penalty > 0 and np.isfinite(cap):
+        w.set_error_cap(cap, max_penalty)
+    return w
 
 
 class ResidualTrainVecEnv(VecEnv):
     """sb3 VecEnv of ``n_envs`` residual envs drawn from ``sampler`` (seeded by ``seed``)."""
 
-    def __init__(self, sampler, n_envs: int, wrapper_kwargs: dict, seed: int, reward_scale="fixed"):
+    def __init__(
+        self, sampler, n_envs: int, wrapper_kwargs: dict, seed: int, reward_scale="fixed",
+        max_penalty: float = 0.0,
+    ):  # fmt: skip
         self.sampler = sampler
         self.wrapper_kwargs = dict(wrapper_kwargs)
         self.reward_scale = reward_scale
+        self.max_penalty = float(max_penalty)
         self.rng = np.random.default_rng(seed)
         self.resample = not sampler.fixed
         if self.resample:
@@ -78,10 +112,16 @@ class ResidualTrainVecEnv(VecEnv):
             self.groups = [self._build(n_envs)]
         g0 = self.groups[0]
         self._actions = None
+        # the envelope of the states trained on (agents/envelope.py), widened every step when
+        # ``track_envelope`` is set (the trainer's, with TrainConfig.envelope)
+        self.envelope = None
+        self.track_envelope = False
         super().__init__(n_envs, g0.single_observation_space, g0.single_action_space)
 
     def _build(self, n: int) -> ResidualVectorWrapper:
-        return make_residual_vec(self.sampler.sample(), n, self.wrapper_kwargs, self.reward_scale)
+        return make_residual_vec(
+            self.sampler.sample(), n, self.wrapper_kwargs, self.reward_scale, self.max_penalty
+        )
 
     def _seed(self) -> int:
         return int(self.rng.integers(0, 2**31))
@@ -115,6 +155,8 @@ class ResidualTrainVecEnv(VecEnv):
         dones = np.zeros(n, dtype=bool)
         infos = [{} for _ in range(n)]
         for gi, (g, sl) in enumerate(list(self._slices())):
+            if self.track_envelope:
+                self._widen(g)
             o, r, term, trunc, info = g.step(self._actions[sl])
             obs[sl] = o
             rewards[sl] = r
@@ -131,6 +173,19 @@ class ResidualTrainVecEnv(VecEnv):
                 o, _ = fresh.reset(seed=self._seed())
                 obs[sl] = o
         return obs, rewards, dones, infos
+
+    def _widen(self, g) -> None:
+        """The envelope widened by the current state of group ``g``'s envs (where the agent's
+        residual acts: the reference moving)."""
+        from ..envelope import Envelope, features_of_core
+
+        core = g.core
+        if self.envelope is None:
+            self.envelope = Envelope(core.dim)
+        kk = np.minimum(core.k, core.n_steps - 1)
+        moving = core.scal[kk, 0] > 0
+        if moving.any():
+            self.envelope.update(features_of_core(core)[moving])
 
     def close(self) -> None:
         for g in self.groups:

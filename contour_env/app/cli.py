@@ -156,6 +156,12 @@ def cmd_compare(args) -> int:
                     'it on the validation set, agent.json "kept": "base")',
                     flush=True,
                 )
+            if row.get("outside_envelope_fraction") is not None:
+                print(
+                    f"    ({name}: {row['outside_envelope_fraction']:.1%} of its decisions outside "
+                    "the ranges it was trained on, its gate faded there)",
+                    flush=True,
+                )
 
     metrics = tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
     _print_program_summary(kw)

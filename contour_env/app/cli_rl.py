@@ -27,6 +27,8 @@ PRESET_NAMES = ("sac-4", "ppo-256")
 # for TrainConfig's own defaults (one env, one gradient step per transition)
 DEFAULT_PRESET = "sac-4"
 DEFAULT_TIMESTEPS = 20_000
+# --timesteps when only --time-budget is given: the budget ends the run
+BUDGET_TIMESTEPS = 100_000_000
 
 
 # the residual law's options of contour-env train (the dest: add_argument's keywords), all
@@ -110,7 +112,6 @@ def config_from_args(args):
         gradient_steps=args.gradient_steps,
         scale=args.scale,
         observe_base_command=args.observe_base_command,
-        observation=args.observation,
         action_repeat=args.action_repeat,
         residual_penalty=args.residual_penalty,
         residual_axes=args.residual_axes,
@@ -126,6 +127,11 @@ def config_from_args(args):
         kw["validation_paths"] = args.validation_paths
     if args.keep_min_gain is not None:
         kw["keep_min_gain"] = args.keep_min_gain
+    for key in ("teacher", "teacher_parts", "teacher_trials", "fine_tune", "envelope",
+                "keep_max_ratio", "max_penalty", "observation"):  # fmt: skip
+        value = getattr(args, key, None)
+        if value is not None:
+            kw[key] = value
     if args.learning_rate is not None:
         kw["learning_rate"] = args.learning_rate
     if args.learning_rate_final is not None:
@@ -159,16 +165,14 @@ def config_from_args(args):
     if kw.get("algo") is None:
         kw["algo"] = "sac"
     if kw.get("timesteps") is None:
-        kw["timesteps"] = DEFAULT_TIMESTEPS
+        # a time budget alone ends the run by time, not by the default step count
+        kw["timesteps"] = BUDGET_TIMESTEPS if kw.get("time_budget_s") else DEFAULT_TIMESTEPS
     return TrainConfig(**kw)
 
 
 def apply_train_defaults(args) -> None:
-    """The defaults ``contour-env train`` fills in after parsing (residual scale, penalty)."""
-    from agents.residual import DEFAULT_SCALE
-
-    if args.scale is None:
-        args.scale = DEFAULT_SCALE
+    """The defaults ``contour-env train`` fills in after parsing (the residual penalty; the
+    scale is the plant's default in the configuration when not given)."""
     if args.residual_penalty is None:
         from agents.rl.config import TrainConfig
 
@@ -251,10 +255,17 @@ def cmd_evaluate(args) -> int:
     m_base = evaluate(gym.make(ENV_ID, **kw), make_controller(agent.base_name), seed=args.seed)
     print_metrics(f"residual ({agent.meta['algo']} on {agent.base_name})", m_agent)
     print_metrics(f"base {agent.base_name}", m_base)
-    ratio = None
+    ratio = max_ratio = None
     if m_agent["rms_contour_error_um"] and m_base["rms_contour_error_um"]:
         ratio = m_agent["rms_contour_error_um"] / m_base["rms_contour_error_um"]
-        print(f"RMS contour error agent/base: {ratio:.3f}")
+        max_ratio = m_agent["max_contour_error_um"] / m_base["max_contour_error_um"]
+        print(f"contour error agent/base: RMS {ratio:.3f}, max {max_ratio:.3f}")
+    outside = m_agent.get("outside_envelope_fraction")
+    if outside is not None:
+        print(
+            f"outside the agent's envelope (gate faded, the base alone beyond it): "
+            f"{outside:.1%} of its decisions"
+        )
     if args.json:
         atomic_write_json(
             args.json,
@@ -268,6 +279,8 @@ def cmd_evaluate(args) -> int:
                 "agent": m_agent,
                 "base_metrics": m_base,
                 "rms_ratio_agent_to_base": ratio,
+                "max_ratio_agent_to_base": max_ratio,
+                "outside_envelope_fraction": outside,
             },
         )
         print(f"wrote {args.json}")
@@ -289,6 +302,7 @@ def add_rl_commands(sub) -> None:
     _add_residual_options(p)
     _add_variety_options(p)
     _add_learning_options(p)
+    _add_teacher_options(p)
     _add_monitoring_options(p)
     _add_sweep_options(p)
     p.set_defaults(func=train_entry)
@@ -385,7 +399,8 @@ def _add_residual_options(p: argparse.ArgumentParser) -> None:
         "--scale",
         type=float,
         default=None,
-        help="residual authority, fraction of the force limit (default 0.05)",
+        help="residual authority, fraction of the force limit (default 0.10 on linear-motor, "
+        "0.05 on the other plants)",
     )
     p.add_argument(
         "--observe-base-command",
@@ -394,10 +409,11 @@ def _add_residual_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--observation",
-        choices=("full", "errors"),
-        default="full",
-        help="what the agent sees: the env's whole observation (full, default) or only the "
-        "task-frame position and velocity errors (errors)",
+        choices=("full", "state", "errors"),
+        default=None,
+        help="what the agent sees: the env's observation without the previous action (state, "
+        "default), the whole of it (full) or only the task-frame position and velocity errors "
+        "(errors)",
     )
     p.add_argument(
         "--action-repeat",
@@ -482,6 +498,55 @@ def _add_learning_options(p: argparse.ArgumentParser) -> None:
         metavar="LR",
         help="anneal the learning rate geometrically to LR over the run (over --time-budget "
         "when given, else over --timesteps); default: constant",
+    )
+
+
+def _add_teacher_options(p: argparse.ArgumentParser) -> None:
+    # train: the teacher, the student's fine-tuning, the envelope and the max rule (issue 48)
+    p.add_argument(
+        "--teacher",
+        choices=("ilc-contour", "none"),
+        default=None,
+        help="ilc-contour (default): ILC on top of the base in the agent's action space on "
+        "--teacher-parts training parts, the actor pretrained on what it learned, the critic "
+        "warmed, then RL; none: RL from scratch (the recipe before the teacher)",
+    )
+    p.add_argument(
+        "--teacher-parts", type=int, default=None, metavar="N",
+        help="training parts the teacher learns on (default 60)",
+    )  # fmt: skip
+    p.add_argument(
+        "--teacher-trials", type=int, default=None, metavar="N",
+        help="ILC trials per part at most (default 30)",
+    )  # fmt: skip
+    p.add_argument(
+        "--fine-tune",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="RL after the teacher's pretraining (default on; --no-fine-tune: the pretrained "
+        "student is keep-best's only candidate)",
+    )
+    p.add_argument(
+        "--envelope",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="the agent fades its gate outside the ranges it was trained on (default on)",
+    )
+    p.add_argument(
+        "--max-penalty",
+        type=float,
+        default=None,
+        metavar="W",
+        help="the reward pays W per unit of its error scale by which the contour error exceeds "
+        "the base's max on the part (default 10; 0: off)",
+    )
+    p.add_argument(
+        "--keep-max-ratio",
+        type=float,
+        default=None,
+        metavar="R",
+        help="keep a checkpoint only if no validation part's max contour error exceeds R x "
+        "the base's (default 1.0)",
     )
 
 

@@ -33,9 +33,9 @@ RUNS = [
 SHORT = "G21 G90 G17 G64 P0.01\nG1 X3 Y1 F600\nG1 X5 Y4\n"
 
 
-def test_the_suite_is_eight_to_ten_programs_in_shop_formats():
+def test_the_suite_is_ten_to_twelve_programs_in_shop_formats():
     assert HELDOUT_DIR == Path(__file__).resolve().parents[1] / "data" / "heldout"
-    assert 8 <= len(SUITE) <= 10
+    assert 10 <= len(SUITE) <= 12
     assert {p.suffix for p in SUITE} >= {".nc", ".ngc", ".gcode", ".tap"}
     assert THREE_D <= {p.name for p in SUITE}
 
@@ -120,3 +120,35 @@ def test_cli_train_refuses_heldout_programs(capsys, tmp_path):
     err = capsys.readouterr().err
     assert "held-out evaluation suite" in err and SUITE[0].name in err
     assert not (tmp_path / "run").exists()
+
+
+OWN_BASE = {"friction-table": "ccc", "linear-motor": "ccc", "hsm2": "adaptive-ccc"}
+
+
+@pytest.mark.parametrize("plant", sorted(OWN_BASE))
+def test_each_plant_has_a_fast_part_and_a_rotated_one_its_base_completes(plant):
+    """Issue 48: per plant a part at >= 5x the top training feed and one whose corners are turned
+    off the axes, both completed by the plant's base controller."""
+    from agents.rl.families import PLANT_RANGES
+
+    own = sorted((HELDOUT_DIR / plant).iterdir())
+    assert len(own) == 2
+    top = PLANT_RANGES[plant].feed_m_s[1]
+    fast = [p for p in own if p.name.startswith("fast_")]
+    rotated = [p for p in own if p.name == "rotated_corners.nc"]
+    assert len(fast) == 1 and len(rotated) == 1
+    for program in own:
+        env = gym.make(ENV_ID, plant=plant, path=str(program))
+        core = env.unwrapped.core
+        m = score(run_episode(env, make_controller(OWN_BASE[plant]).bind(env), seed=0))
+        assert m["completed"], (program.name, m["incomplete_reason"])
+        feed = core.scal[:, 0].max()
+        if program in fast:
+            assert feed >= 5 * top - 1e-9
+        else:
+            assert PLANT_RANGES[plant].feed_m_s[0] <= feed <= top
+            # every straight leg of the square is at least 15 deg off both axes
+            ref = core.ref_pav[:, 1, :2]
+            moving = np.linalg.norm(ref, axis=1) > 0.5 * feed
+            ang = np.degrees(np.arctan2(np.abs(ref[moving, 1]), np.abs(ref[moving, 0])))
+            assert np.all((ang > 15) & (ang < 75))

@@ -31,6 +31,7 @@ TINY = dict(
     checkpoint_freq=100,
     keep_checkpoints=10,
     net_arch=(16, 16),
+    teacher="none",
 )
 
 
@@ -181,11 +182,15 @@ def test_real_validation_keeps_the_argmin_and_rescoring_it_agrees(tmp_path):
     # the rule, recomputed from the recorded per-path figures: the lowest mean ratio among the
     # points no worse than the base on any path, if below the base's 1
     base = rec["base_per_path_um"]
+    base_max = rec["base_max_per_path_um"]
     scores = []
     for p in rec["curve"]:
         r = [a / b for a, b in zip(p["per_path_um"], base, strict=True)]
+        rm = [a / b for a, b in zip(p["per_path_max_um"], base_max, strict=True)]
         assert p["ratio_to_base"] == pytest.approx(r, rel=1e-12)
-        scores.append(np.mean(r) if max(r) <= 1.0 else np.inf)
+        assert p["max_ratio_to_base"] == pytest.approx(rm, rel=1e-12)
+        ok = max(r) <= 1.0 and max(rm) <= cfg.keep_max_ratio and np.mean(r) <= 0.9
+        scores.append(np.mean(r) if ok else np.inf)
     validator = Validator(cfg)
     if min(scores) >= 1.0:
         assert res["kept"] == "base" and rec["best"]["kept"] == "base"
@@ -265,3 +270,36 @@ def test_a_model_dirs_validation_plot_is_redrawn_from_its_json(tmp_path, name):
     out = tmp_path / "v.png"
     plot_validation(record, "sac", name, out)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_checkpoint_that_raises_a_max_is_not_eligible():
+    """A tolerance is a max: lower RMS everywhere but a max above keep_max_ratio x the base's
+    on one part is not eligible (issue 48)."""
+
+    class V(Validator):
+        def __init__(self):
+            self.base_per_path = [10.0, 20.0]
+            self.base_max_per_path = [50.0, 80.0]
+            self.min_gain = 0.10
+            self.max_ratio = 1.0
+
+    v = V()
+    assert v.judge([5.0, 10.0], [40.0, 60.0]) == (pytest.approx(0.5), True)
+    assert v.judge([5.0, 10.0], [40.0, 81.0])[1] is False
+    assert v.max_ratios([40.0, 81.0]) == [0.8, pytest.approx(81 / 80)]
+    v.max_ratio = 1.05
+    assert v.judge([5.0, 10.0], [40.0, 83.0])[1] is True
+    assert v.judge([5.0, 10.0], [40.0, 85.0])[1] is False
+    # without the per-part max (a scripted validator): the RMS rule alone
+    assert v.judge([5.0, 10.0]) == (pytest.approx(0.5), True)
+
+
+def test_old_configurations_have_no_max_rule_and_no_teacher():
+    d = TrainConfig(**TINY).to_dict()
+    for key in ("keep_max_ratio", "teacher", "envelope"):
+        d.pop(key)
+    old = TrainConfig.from_dict(d)
+    assert old.keep_max_ratio == math.inf and old.teacher == "none" and old.envelope is False
+    assert TrainConfig(**{**TINY, "teacher": "ilc-contour"}).keep_max_ratio == 1.0
+    with pytest.raises(ValueError, match=r"keep_max_ratio: must be a number >= 1"):
+        TrainConfig(**{**TINY, "keep_max_ratio": 0.9})

@@ -30,6 +30,7 @@ TINY = dict(
     checkpoint_freq=150,
     net_arch=(16, 16),
     validation_paths=1,
+    teacher="none",
 )
 
 

@@ -164,7 +164,7 @@ def test_default_action_repeat_is_one_agent_action_per_ms():
         ({"action_repeat": 0}, "action_repeat"),
         ({"residual_penalty": -1}, "residual_penalty"),
         ({"base": "nope"}, r"base: unknown controller 'nope'.*pd"),
-        ({"observation": "all"}, r"observation: must be one of full, errors"),
+        ({"observation": "all"}, r"observation: must be one of full, state, errors"),
     ],
 )
 def test_bad_arguments_are_clear_errors(kwargs, match):
@@ -310,3 +310,34 @@ def test_residual_axes_is_checked_and_old_agents_keep_every_axis(tmp_path):
     (old_dir / "agent.json").write_text(json.dumps(meta))
     agent = ResidualAgent(old_dir)
     assert "residual_axes" not in agent.meta and agent.residual_axes == "all"
+
+
+def test_the_max_penalty_pays_for_the_error_above_the_cap_single_and_vector():
+    """Issue 48: with an error cap c and penalty p, each period's reward is the env's minus
+    p · (ε − c)⁺ / scale; the same episode, stepped with and without, differs by exactly that."""
+    kw = {"plant": "friction-table", "path": SHORT, "contour_error_scale_m": 5e-6}
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-0.3, 0.3, size=(300, 2))
+    plain = ResidualWrapper(gym.make(ENV_ID, **kw), "ccc", action_repeat=1)
+    capped = ResidualWrapper(gym.make(ENV_ID, **kw), "ccc", action_repeat=1)
+    capped.set_error_cap(20e-6, 3.0)
+    vec = ResidualVectorWrapper(
+        gym.make_vec(ENV_ID, num_envs=1, vectorization_mode="vector_entry_point", **kw), "ccc",
+        action_repeat=1,
+    )  # fmt: skip
+    vec.set_error_cap(20e-6, 3.0)
+    for w in (plain, capped, vec):
+        w.reset(seed=1)
+    paid = 0
+    for a in actions:
+        _, r0, *_, info = plain.step(a)
+        _, r1, *_ = capped.step(a)
+        _, rv, *_ = vec.step(a[None])
+        eps = info["contour_error"]
+        want = r0 - 3.0 * max(eps - 20e-6, 0.0) / 5e-6
+        assert r1 == pytest.approx(want, rel=1e-12, abs=1e-12)
+        assert rv[0] == pytest.approx(want, rel=1e-9, abs=1e-9)
+        paid += eps > 20e-6
+    assert paid > 0  # the test reaches the cap
+    with pytest.raises(ValueError, match="error cap: cap >= 0 m and penalty >= 0"):
+        plain.set_error_cap(1e-6, -1.0)

@@ -20,6 +20,7 @@ TINY = dict(
     net_arch=(16, 16),
     # no keep-best validation episodes: this test is about the replay buffer
     validation_paths=0,
+    teacher="none",
 )
 
 

@@ -1,14 +1,15 @@
 """The shipped agents' scorecard (agents/models/scorecard.json, written by
 scripts/residual_scorecard.py): it is the card of the agents that are shipped (their digests),
 covers every held-out program and named case of each plant, its summary follows from its rows,
-a re-scored row agrees, and every shipped agent is never worse than its base there and — unless
-keep-best kept the base itself, which then scores 1 exactly everywhere — better by 10 % on the
-held-out programs on average (issue 33's acceptance)."""
+a re-scored row agrees, and issue 48's acceptance: every shipped 2-/3-axis agent is a trained
+agent, not its base; on every held-out program and named case of its plant its RMS contour
+error is at most its base's and its max at most 1.05x; the plant's own fast and rotated parts
+at most 1.00x in both; and the held-out mean RMS ratio at most 0.5 (friction-table), 0.7
+(linear-motor), 0.8 (hsm2)."""
 
 from __future__ import annotations
 
 import json
-import math
 
 import pytest
 
@@ -39,11 +40,15 @@ def test_every_target_is_scored_and_the_summary_follows(cards, row):
     card = cards[row["name"]]
     want = [(k, label) for k, label, _ in targets_for(row["plant"], row["n_axes"])]
     assert [(r["kind"], r["target"]) for r in card["rows"]] == want
-    assert sum(k == "heldout" for k, _ in want) >= 8
+    assert sum(k == "heldout" for k, _ in want) >= 12
+    # the plant's own parts: 5x its top training feed, corners off the axes
+    assert sum(label.startswith(f"{row['plant']}/") for _, label in want) == 2
     for r in card["rows"]:
         if r["rms_ratio"] is not None:
             ratio = r["agent_rms_contour_error_um"] / r["base_rms_contour_error_um"]
             assert r["rms_ratio"] == pytest.approx(ratio, rel=1e-12)
+            ratio = r["agent_max_contour_error_um"] / r["base_max_contour_error_um"]
+            assert r["max_ratio"] == pytest.approx(ratio, rel=1e-12)
     assert summary(card["rows"]) == {k: card[k] for k in summary(card["rows"])}
 
 
@@ -53,29 +58,32 @@ def test_a_rescored_row_agrees(cards, row):
     kind, label, kw = targets_for(row["plant"], row["n_axes"])[0]
     again = score_target(row["path"], kind, label, kw)
     first = card["rows"][0]
+    # the same code differs by up to ~1e-3 relative between CPUs of this machine kind (issue
+    # 51: 4.358137 against 4.364485 um on friction-table): the card agrees within 1 %
     for key in ("base_rms_contour_error_um", "agent_rms_contour_error_um"):
-        assert again[key] == pytest.approx(first[key], rel=1e-9, abs=1e-9)
+        assert again[key] == pytest.approx(first[key], rel=1e-2, abs=1e-9)
+
+
+# issue 48's held-out mean RMS ratio targets
+MEAN_TARGET = {"friction-table": 0.5, "linear-motor": 0.7, "hsm2": 0.8}
 
 
 @pytest.mark.parametrize("row", SHIPPED, ids=lambda r: r["name"])
-def test_never_worse_than_the_base_and_better_on_average(cards, row):
+def test_never_worse_than_the_base_in_rms_or_max_and_better_on_average(cards, row):
     card = cards[row["name"]]
+    assert card["kept"] != "base", f"{row['name']}: the shipped agent is its base"
     worse = [
-        (r["target"], r["rms_ratio"])
+        (r["target"], r["rms_ratio"], r["max_ratio"])
         for r in card["rows"]
-        if r["rms_ratio"] is None or r["rms_ratio"] > 1.0
+        if r["rms_ratio"] is None
+        or r["rms_ratio"] > 1.0
+        or r["max_ratio"] is None
+        or r["max_ratio"] > 1.05
     ]
-    assert not worse, f"{row['name']}: worse than its base on {worse}"
-    assert math.isfinite(card["worst_ratio"]) and card["worst_ratio"] <= 1.0
-    if card["kept"] == "base":
-        # no checkpoint passed keep-best: the shipped agent is its base, exactly, everywhere
-        # (issue 33's 10 % target is then not met for this plant: the README says so)
-        assert all(r["rms_ratio"] == 1.0 for r in card["rows"])
-        assert f"`{row['name']}` ({card['base']}) | the base (no checkpoint passed)" in (
-            README.read_text()
-        )
-    else:
-        assert card["heldout_mean_ratio"] is not None and card["heldout_mean_ratio"] <= 0.90
+    assert not worse, f"{row['name']}: worse than its base (RMS > 1 or max > 1.05) on {worse}"
+    own = [r for r in card["rows"] if r["target"].startswith(f"{row['plant']}/")]
+    assert len(own) == 2 and all(r["rms_ratio"] <= 1.0 and r["max_ratio"] <= 1.0 for r in own)
+    assert card["heldout_mean_ratio"] <= MEAN_TARGET[row["plant"]]
 
 
 def test_the_readme_shows_the_card():

@@ -30,6 +30,8 @@ TINY = dict(
     ppo_n_steps=32,
     net_arch=(16, 16),
     validation_paths=1,
+    teacher="none",
+    envelope=False,
 )
 
 
@@ -305,7 +307,7 @@ def test_errors_observation_agent_is_scored_as_it_was_trained(tmp_path, gcode):
     assert w.observation == "errors"
 
     assert evaluate(w, _ModelPolicy(agent)) == m_agent
-    with pytest.raises(ValueError, match="observation: must be one of full, errors"):
+    with pytest.raises(ValueError, match="observation: must be one of full, state, errors"):
         TrainConfig(gcode=(gcode,), observation="everything", **TINY)
 
 

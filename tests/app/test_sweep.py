@@ -56,7 +56,7 @@ def test_serial_sweep_writes_model_dirs_that_evaluate_accepts(serial_sweep, caps
         cfg = json.loads((out / t["name"] / "config.json").read_text())
         assert cfg["seed"] == t["options"]["seed"] and cfg["net_arch"] == [16, 16]
         assert main(["evaluate", "--model", t["model"], "--case", "sharp-corner"]) == 0
-        assert "RMS contour error agent/base" in capsys.readouterr().out
+        assert "contour error agent/base: RMS" in capsys.readouterr().out
     # the seeds differ, so do the models
     a, b = (t["final_rms_contour_error_um"] for t in doc["trials"])
     assert a != b
