@@ -23,6 +23,12 @@ inputs (SI units; upper bounds — every part starts and ends at rest, so every 
 | ``error`` (per task-frame direction t, n(, b)): the measured error |Fᵀ(x_d − x)|, as the
   observation carries it | m |
 
+and, per part, the **programmed feed** F (the part's feed, m/s: the case's, the program's F)
+with a lower bound as well as an upper one — the fade then acts on F / hi (above) or lo / F
+(below) the same way: a part programmed slower or faster than any the agent trained on is
+outside, from its first decision (a linear-motor agent trained at 20–150 mm/s was 1.05x its
+base on a star at 13 mm/s).
+
 The fade acts on the gate (an agent without a gate: on its whole push), at every agent
 decision, in the Python and the compiled loop alike (:func:`envelope_factor`); ``evaluate`` and
 ``compare`` report the share of the agent's decisions taken outside (f < 1) as
@@ -74,10 +80,14 @@ def features_of_core(core) -> np.ndarray:
 
 
 @njit(cache=True)
-def envelope_factor(A, k, n_steps, scal, ref_pav, obs, err_scale, hi, margin):
-    """f (float) of env 0 at its current sample (module docstring); ``hi`` (2 + 3A,)."""
+def envelope_factor(A, k, n_steps, scal, ref_pav, obs, err_scale, hi, margin, part_excess):
+    """f (float) of env 0 at its current sample (module docstring); ``hi`` (2 + 3A,);
+    ``part_excess``: the part's own ratio to its bounds (the programmed feed's, 1 inside)."""
     kk = k[0] if k[0] < n_steps - 1 else n_steps - 1
-    worst = abs(scal[kk, 0]) / hi[0]
+    worst = part_excess
+    x = abs(scal[kk, 0]) / hi[0]
+    if x > worst:
+        worst = x
     x = abs(scal[kk, 2]) / hi[1]
     if x > worst:
         worst = x
@@ -102,8 +112,18 @@ def envelope_factor(A, k, n_steps, scal, ref_pav, obs, err_scale, hi, margin):
 class Envelope:
     """Upper bounds of the envelope's inputs (module docstring) and the fade margin."""
 
-    def __init__(self, n_axes: int, hi=None, margin: float = DEFAULT_MARGIN):
+    def __init__(self, n_axes: int, hi=None, margin: float = DEFAULT_MARGIN, feed_range=None):
         self.n_axes = int(n_axes)
+        # (lo, hi) of the programmed feeds trained on (m/s); None: not checked
+        self.feed_range = None
+        if feed_range is not None:
+            lo, up = (float(v) for v in feed_range)
+            if not (math.isfinite(lo) and math.isfinite(up) and 0 < lo <= up):
+                raise ValueError(
+                    f"envelope: programmed_feed_m_s must be [lo, hi] with 0 < lo <= hi, got "
+                    f"{list(feed_range)!r}"
+                )
+            self.feed_range = (lo, up)
         size = 2 + 3 * self.n_axes
         self.hi = np.zeros(size) if hi is None else np.asarray(hi, dtype=np.float64).copy()
         if self.hi.shape != (size,):
@@ -114,6 +134,25 @@ class Envelope:
         if not (math.isfinite(m) and m > 0):
             raise ValueError(f"envelope: margin must be > 0, got {margin!r}")
         self.margin = m
+
+    def update_feed(self, feed_m_s: float) -> None:
+        """Widen the programmed-feed range to cover ``feed_m_s`` (a part trained on)."""
+        f = float(feed_m_s)
+        if not (math.isfinite(f) and f > 0):
+            return
+        lo, up = self.feed_range or (f, f)
+        self.feed_range = (min(lo, f), max(up, f))
+
+    def part_excess(self, feed_m_s: float) -> float:
+        """The programmed feed's ratio to its range: F / hi above it, lo / F below, 1 inside
+        (and without a range)."""
+        if self.feed_range is None:
+            return 1.0
+        lo, up = self.feed_range
+        f = float(feed_m_s)
+        if not (math.isfinite(f) and f > 0):
+            return math.inf
+        return max(f / up, lo / f, 1.0) if (f > up or f < lo) else 1.0
 
     def update(self, features: np.ndarray) -> None:
         """Widen the bounds to cover ``features`` (B, 2 + 3n) (rows with a non-finite value
@@ -127,23 +166,26 @@ class Envelope:
         """The bounds the fade divides by (never 0)."""
         return np.maximum(self.hi, _FLOOR)
 
-    def factor(self, features: np.ndarray) -> np.ndarray:
-        """f per row of ``features`` (B, 2 + 3n)."""
+    def factor(self, features: np.ndarray, feed_m_s: float | None = None) -> np.ndarray:
+        """f per row of ``features`` (B, 2 + 3n) on a part programmed at ``feed_m_s``."""
         x = np.abs(np.asarray(features, dtype=np.float64)) / self.bounds()
-        worst = x.max(axis=1)
+        worst = np.maximum(x.max(axis=1), 1.0 if feed_m_s is None else self.part_excess(feed_m_s))
         f = 1.0 - (worst - 1.0) / self.margin
         f = np.where(np.isfinite(f), f, 0.0)
         return np.clip(f, 0.0, 1.0)
 
     def copy(self) -> Envelope:
-        return Envelope(self.n_axes, self.hi, self.margin)
+        return Envelope(self.n_axes, self.hi, self.margin, self.feed_range)
 
     def to_dict(self) -> dict:
-        return {
+        out = {
             "format": ENVELOPE_FORMAT,
             "margin": self.margin,
             "upper_bounds": dict(zip(feature_names(self.n_axes), self.hi.tolist(), strict=True)),
         }
+        if self.feed_range is not None:
+            out["programmed_feed_m_s"] = list(self.feed_range)
+        return out
 
     @classmethod
     def from_dict(cls, data, n_axes: int, where: str = "agent.json: envelope") -> Envelope:
@@ -168,7 +210,14 @@ class Envelope:
             or not (math.isfinite(margin) and margin > 0)
         ):
             raise ValueError(f"{where}: margin: must be a number > 0, got {margin!r}")
-        return cls(n_axes, hi, margin)
+        feed = data.get("programmed_feed_m_s")
+        if feed is not None and (
+            not isinstance(feed, list)
+            or len(feed) != 2
+            or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in feed)
+        ):
+            raise ValueError(f"{where}: programmed_feed_m_s: [lo, hi] in m/s, got {feed!r}")
+        return cls(n_axes, hi, margin, feed)
 
 
 __all__ = ["DEFAULT_MARGIN", "Envelope", "envelope_factor", "feature_names", "features_of_core"]

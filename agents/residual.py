@@ -786,7 +786,8 @@ class ResidualAgent(Controller):
             if self.use_envelope:
                 from .envelope import features_of_core
 
-                f = self.envelope.factor(features_of_core(self._core)[:B])
+                feed = float(self._core.setup.feedrate_m_s)
+                f = self.envelope.factor(features_of_core(self._core)[:B], feed)
                 a = self.fade_action(a, f, due)
             self._a[:B][due] = a[due]
         self._count[:B] += 1

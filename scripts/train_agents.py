@@ -12,7 +12,7 @@ TensorBoard logs are not shipped. ``--from-run DIR`` installs a run made elsewhe
 background with ``contour-env train``) after checking that its ``config.json`` is the shipped
 configuration. ``scripts/residual_scorecard.py`` then scores them against their bases.
 
-The shipped recipes stop on a training-time budget and validate every 60 s of training time, so
+The shipped recipes stop on a training-time budget and validate every 30 s of training time, so
 a run is reproducible in its configuration, not to the bit: how many steps fit in the budget,
 and so which checkpoints are candidates, depends on the machine's speed at the time (sb3 and
 torch are seeded by ``seed``).
@@ -46,7 +46,7 @@ OPTIONAL_FILES = (
 
 # one entry per shipped agent: TrainConfig keywords (everything else at its default, seed 0
 # unless given). Every agent is taught, then fine-tuned (issue 48): the teacher (ILC on top of
-# the base in the agent's action space, agents/teacher.py) learns a correction on 60 training
+# the base in the agent's action space, agents/teacher.py) learns a correction on 120 training
 # parts of the path families, the actor is fitted to it, the critic warmed and the replay
 # buffer filled with its transitions, then SAC on 4 envs (the sac-4 preset) fine-tunes with a
 # learning rate annealed 3e-4 -> 3e-5 over the time budget. The budget (10 minutes of
@@ -63,11 +63,11 @@ _RECIPE = dict(
     gradient_steps=2,
     timesteps=100_000_000,  # the time budget ends the run
     time_budget_s=600.0,
-    eval_every_s=60.0,
+    eval_every_s=30.0,
     gate=True,
     learning_rate_final=3e-5,
     teacher="ilc-contour",
-    teacher_parts=60,
+    teacher_parts=120,
     validation_paths=16,
 )
 SHIPPED = {

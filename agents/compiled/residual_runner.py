@@ -352,6 +352,7 @@ class ResidualForm:
         return (
             int(core.dim), core.k, int(core.n_steps), core.scal, core.ref_pav, core.obs,
             float(core.config.error_obs_scale_m), env.bounds(), float(env.margin),
+            float(env.part_excess(core.setup.feedrate_m_s)),
         )  # fmt: skip
 
     def run_single(self, core, rec_time, rec_eps, rec_pos, rec_ref, rec_force) -> tuple:

@@ -46,6 +46,8 @@ def list_models(root=None) -> list[dict]:
                 "scale": m["scale"],
                 "train_wall_s": m.get("train_wall_s"),
                 "kept": m.get("kept"),
+                "teacher": m.get("teacher", "none"),
+                "envelope": m.get("envelope") is not None,
             }
         )
     return rows
@@ -74,15 +76,17 @@ def format_models(rows: list[dict]) -> str:
     if not rows:
         return "no trained agents found"
     lines = [
-        f"{'name':22s} {'plant':15s} {'algo':7s} {'base':13s} {'timesteps':>10s}  "
-        f"{'kept':16s} cases"
+        f"{'name':22s} {'plant':15s} {'algo':7s} {'base':13s} {'teacher':12s} {'envelope':8s} "
+        f"{'timesteps':>10s}  {'kept':16s} cases"
     ]
     for r in rows:
         if "error" in r:
             lines.append(f"{r['name']:22s} unreadable: {r['error']}")
             continue
+        env = "yes" if r.get("envelope") else "no"
         lines.append(
             f"{r['name']:22s} {r['plant']:15s} {r['algo']:7s} {r['base']:13s} "
+            f"{r.get('teacher', 'none'):12s} {env:8s} "
             f"{r['timesteps'] or 0:>10d}  {_kept(r.get('kept')):16s} {', '.join(r['cases'])}"
         )
     return "\n".join(lines)

@@ -265,8 +265,54 @@ def warm_critic(model, venv, steps: int = DEFAULT_CRITIC_STEPS, log=None) -> dic
     return out
 
 
+def attach_teacher_regularizer(
+    model, venv, data, *, n_axes: int, gate: bool, path_frame: bool, alpha: float,
+    batch: int = 256, seed: int = 0,
+) -> bool:  # fmt: skip
+    """Keep the fine-tuned actor near the teacher (TD3+BC's form, Fujimoto & Gu 2021): every
+    actor update of SAC / TD3 adds the gradient of (mean |Q| / ``alpha``) · L_bc, L_bc the
+    regression loss of step 2 on a batch of the teacher's rows, mean |Q| the critic's value of
+    the actor's actions there (so the two terms keep their ratio as the values grow). The
+    actor's optimiser ``step`` is wrapped: sb3 computes and back-propagates its actor loss,
+    this adds the teacher's term to the gradients, then the optimiser steps. Returns whether
+    it was attached (off-policy models with teacher rows)."""
+    import torch
+    from stable_baselines3 import SAC, TD3
+
+    if not isinstance(model, (SAC, TD3)) or alpha <= 0:
+        return False
+    rows = np.flatnonzero(data.weight > 0)
+    if rows.size == 0:
+        return False
+    A = n_axes
+    tgt = data.labels[rows]
+    eff_t = tgt[:, :A] * (tgt[:, A : A + 1] if gate else 1.0)
+    power = float(np.mean(np.sum(eff_t**2, axis=1))) or 1.0
+    obs = data.obs[rows]
+    rng = np.random.default_rng(seed)
+    opt = model.actor.optimizer
+    real_step = opt.step
+
+    def step(*args, **kwargs):
+        idx = rng.integers(0, rows.size, size=batch)
+        x = torch.as_tensor(np.asarray(venv.normalize_obs(obs[idx]), dtype=np.float32))
+        y = torch.as_tensor(eff_t[idx])
+        a, _ = _deterministic(model, x)
+        diff = _effective(a, A, gate, path_frame) - y
+        bc = torch.mean(torch.sum(diff * diff, dim=1)) / power
+        with torch.no_grad():
+            q = torch.cat(model.critic(x, a), dim=1)
+            scale = float(q.abs().mean()) / alpha
+        (scale * bc).backward()
+        return real_step(*args, **kwargs)
+
+    opt.step = step
+    return True
+
+
 __all__ = [
     "TEACHER_ENT_COEF_INIT",
+    "attach_teacher_regularizer",
     "fill_replay_buffer",
     "pretrain_actor",
     "set_statistics",

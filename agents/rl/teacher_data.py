@@ -277,6 +277,7 @@ def collect(cfg, n_parts: int = DEFAULT_TEACHER_PARTS, *, progress=None, log=Non
                 n_axes = core.dim
                 envelope = Envelope(n_axes)
             envelope.update(np.concatenate([reference_features(core), lesson.error_max_m])[None])
+            envelope.update_feed(core.setup.feedrate_m_s)
         lessons.append(entry)
         if progress is not None:
             progress(entry)

@@ -327,7 +327,13 @@ def _teach(cfg: TrainConfig, out: Path, raw, venv, model, log, progress: bool) -
     """The teacher's lessons on the training parts, the student's actor fitted to them, the
     critic warmed and the replay buffer filled (:mod:`agents.rl.teacher_data`,
     :mod:`agents.rl.pretrain`); writes ``teacher.json``; returns {"seconds", "record"}."""
-    from .pretrain import fill_replay_buffer, pretrain_actor, set_statistics, warm_critic
+    from .pretrain import (
+        attach_teacher_regularizer,
+        fill_replay_buffer,
+        pretrain_actor,
+        set_statistics,
+        warm_critic,
+    )
     from .teacher_data import collect
 
     t0 = time.perf_counter()
@@ -368,10 +374,15 @@ def _teach(cfg: TrainConfig, out: Path, raw, venv, model, log, progress: bool) -
     )  # fmt: skip
     stored = fill_replay_buffer(model, data)
     critic = warm_critic(model, venv, log=log) if stored else {"critic_steps": 0}
+    regularized = attach_teacher_regularizer(
+        model, venv, data, n_axes=int(g.n_axes), gate=cfg.gate,
+        path_frame=cfg.residual_frame == "path", alpha=cfg.teacher_regularization, seed=cfg.seed,
+    )  # fmt: skip
     record = {
         "teacher": cfg.teacher,
         **summary,
         "replay_buffer_rows": stored,
+        "teacher_regularization": cfg.teacher_regularization if regularized else 0.0,
         "actor": fit,
         "critic": critic,
         "lessons": data.lessons,

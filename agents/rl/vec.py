@@ -186,6 +186,7 @@ class ResidualTrainVecEnv(VecEnv):
         moving = core.scal[kk, 0] > 0
         if moving.any():
             self.envelope.update(features_of_core(core)[moving])
+            self.envelope.update_feed(core.setup.feedrate_m_s)
 
     def close(self) -> None:
         for g in self.groups:

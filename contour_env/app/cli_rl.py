@@ -128,7 +128,8 @@ def config_from_args(args):
     if args.keep_min_gain is not None:
         kw["keep_min_gain"] = args.keep_min_gain
     for key in ("teacher", "teacher_parts", "teacher_trials", "fine_tune", "envelope",
-                "keep_max_ratio", "max_penalty", "observation"):  # fmt: skip
+                "keep_max_ratio", "max_penalty", "teacher_regularization",
+                "observation"):  # fmt: skip
         value = getattr(args, key, None)
         if value is not None:
             kw[key] = value
@@ -538,7 +539,14 @@ def _add_teacher_options(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="W",
         help="the reward pays W per unit of its error scale by which the contour error exceeds "
-        "the base's max on the part (default 10; 0: off)",
+        "the base's max on the part (default 3; 0: off)",
+    )
+    p.add_argument(
+        "--teacher-regularization",
+        type=float,
+        default=None,
+        metavar="ALPHA",
+        help="keep the fine-tuned actor near the teacher, TD3+BC's alpha (default 0: off)",
     )
     p.add_argument(
         "--keep-max-ratio",

@@ -72,7 +72,7 @@ def test_compiled_factor_equals_the_numpy_one_along_an_episode():
         f_np = fence.factor(features_of_core(core))[0]
         f_nb = envelope_factor(
             2, core.k, int(core.n_steps), core.scal, core.ref_pav, core.obs,
-            float(core.config.error_obs_scale_m), fence.bounds(), fence.margin,
+            float(core.config.error_obs_scale_m), fence.bounds(), fence.margin, 1.0,
         )  # fmt: skip
         assert f_nb == pytest.approx(f_np, abs=1e-12)
 
@@ -113,3 +113,36 @@ def test_a_wide_envelope_changes_nothing_and_both_loops_agree(tmp_path):
     np.testing.assert_array_equal(b.contour_error, c.contour_error)
     assert wide.outside_envelope_fraction() == 0.0
     assert plain.outside_envelope_fraction() is None
+
+
+def test_the_programmed_feed_has_a_lower_and_an_upper_bound():
+    env = Envelope(2, hi=np.full(8, 1.0), margin=0.25)
+    rows = np.zeros((1, 8))
+    assert env.factor(rows, 0.001)[0] == 1.0  # no range recorded: not checked
+    for f in (0.02, 0.04, 0.03):
+        env.update_feed(f)
+    assert env.feed_range == (0.02, 0.04)
+    # inside, 12.5 % below and above (half-way into the margin), 25 % beyond
+    assert env.factor(rows, 0.03)[0] == 1.0
+    assert env.factor(rows, 0.02 / 1.125)[0] == pytest.approx(0.5)
+    assert env.factor(rows, 0.04 * 1.125)[0] == pytest.approx(0.5)
+    assert env.factor(rows, 0.04 * 1.25)[0] == 0.0 and env.factor(rows, 0.01)[0] == 0.0
+    again = Envelope.from_dict(json.loads(json.dumps(env.to_dict())), 2)
+    assert again.feed_range == (0.02, 0.04)
+    d = env.to_dict()
+    d["programmed_feed_m_s"] = [0.05, 0.01]
+    with pytest.raises(ValueError, match="programmed_feed_m_s must be"):
+        Envelope.from_dict(d, 2)
+
+
+def test_a_part_programmed_outside_the_trained_feeds_is_run_by_the_base(tmp_path):
+    d = _agent_with(tmp_path, np.full(8, 1e9))
+    meta = json.loads((d / "agent.json").read_text())
+    meta["envelope"]["programmed_feed_m_s"] = [0.03, 0.04]  # the part below runs at 0.02
+    (d / "agent.json").write_text(json.dumps(meta))
+    kw = {"plant": "friction-table", "path": "G21 G90 G64 P0.01\nG01 X6 Y2 F1200\nG01 Y6\n"}
+    agent = ResidualAgent(d)
+    rec = run_episode(gym.make(ENV_ID, **kw), agent)
+    base = run_episode(gym.make(ENV_ID, **kw), make_controller("ccc"))
+    np.testing.assert_array_equal(rec.contour_error, base.contour_error)
+    assert agent.outside_envelope_fraction() == 1.0

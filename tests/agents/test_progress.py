@@ -180,3 +180,22 @@ def test_the_ppo_preset_trains_end_to_end(tmp_path, gcode):
     cfg = TrainConfig(gcode=(gcode,), **kw)
     s = train(cfg, tmp_path / "ppo", progress=False, log=lambda *a: None)
     assert s["timesteps"] >= cfg.timesteps and (tmp_path / "ppo" / "model.zip").is_file()
+
+
+def test_the_teacher_options_reach_the_configuration_and_a_budget_alone_ends_by_time():
+    """contour-env train's issue-48 options; with --time-budget and no --timesteps the run is
+    ended by the budget, not by the default 20 000 steps."""
+    cfg = cli_rl.config_from_args(_args(time_budget=540.0, scale=None, observation=None))
+    assert cfg.teacher == "ilc-contour" and cfg.envelope and cfg.fine_tune
+    assert cfg.timesteps == cli_rl.BUDGET_TIMESTEPS and cfg.observation == "state"
+    assert cfg.scale == 0.05 and cfg.max_penalty == 3.0 and cfg.keep_max_ratio == 1.0
+    cfg = cli_rl.config_from_args(
+        _args(teacher="none", envelope=False, fine_tune=False, max_penalty=0.0,
+              keep_max_ratio=1.05, teacher_parts=7, teacher_trials=4,
+              teacher_regularization=2.5, plant="linear-motor", scale=None)
+    )  # fmt: skip
+    assert (cfg.teacher, cfg.envelope, cfg.fine_tune) == ("none", False, False)
+    assert (cfg.max_penalty, cfg.keep_max_ratio) == (0.0, 1.05)
+    assert (cfg.teacher_parts, cfg.teacher_trials, cfg.teacher_regularization) == (7, 4, 2.5)
+    assert cfg.scale == 0.10  # the linear motor's default authority
+    assert cli_rl.config_from_args(_args()).timesteps == cli_rl.DEFAULT_TIMESTEPS

@@ -446,7 +446,7 @@ def test_an_agent_kept_as_its_base_says_so_in_compare_and_evaluate(
     assert main(["evaluate", "--model", str(out), "--plant", "friction-table", "--gcode",
                  gcode]) == 0  # fmt: skip
     printed = capsys.readouterr().out
-    assert "is its base pd" in printed and "agent/base: 1.000" in printed
+    assert "is its base pd" in printed and "agent/base: RMS 1.000, max 1.000" in printed
 
 
 def test_reward_scale_base_is_the_base_error_on_the_part(gcode):
