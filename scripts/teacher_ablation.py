@@ -23,7 +23,8 @@ observation, fade at rest, keep-best with the base as a candidate and the max ru
 budget is training time with the teacher in it (a teacher-only run ends when its student is
 fitted). Each run is its own process, ``--parallel`` at a time; a run that exists in ``--work``
 with its ``agent.json`` is not trained again. Each kept agent is scored by
-:mod:`agents.rl.scorecard`. Writes ``--out`` (atomically): per run its card, per variant the
+:mod:`agents.rl.scorecard` (the card cached in the run's folder, so a second call with more
+variants scores only the new runs). Writes ``--out`` (atomically): per run its card, per variant the
 mean, min and max over the seeds of the held-out mean and worst RMS ratio, the held-out mean
 and worst max ratio and how many seeds kept the base. ``--markdown`` prints the README's table.
 """
@@ -103,6 +104,23 @@ def markdown(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _card(out: Path, workers: int) -> dict:
+    """The run's scorecard, cached in its folder (``card.json``) for the agent it scored."""
+    import json
+
+    from agents.rl.scorecard import model_digest, scorecard
+    from contour_env.io import atomic_write_json
+
+    cached = out / "card.json"
+    if cached.is_file():
+        card = json.loads(cached.read_text())
+        if card.get("model_digest") == model_digest(out):
+            return card
+    card = scorecard(out, workers=workers)
+    atomic_write_json(cached, card)
+    return card
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plant", default="friction-table")
@@ -119,7 +137,6 @@ def main(argv=None) -> int:
     import json
     import shlex
 
-    from agents.rl.scorecard import scorecard
     from contour_env.io import atomic_write_json
 
     seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
@@ -140,7 +157,7 @@ def main(argv=None) -> int:
     previous = json.loads(out_json.read_text()) if out_json.is_file() else {}
     cards_by_variant = {v: [] for v in variants}
     for (v, s), out in runs.items():
-        card = scorecard(out, workers=args.parallel)
+        card = _card(out, args.parallel)
         meta = json.loads((out / "agent.json").read_text())
         card.update(seed=s, variant=v, run_wall_s=meta.get("run_wall_s"))
         cards_by_variant[v].append(card)

@@ -95,13 +95,16 @@ class PlantRanges:
 # from the named cases: hsm2-circle-I..III (r 60–100 mm, 0.2–0.4 m/s, ≤ 2.67 m/s²
 # centripetal, a 2 m/s², j 40 m/s³); jee-circle3d (r 50 mm, 0.167 m/s); lm-circle3d (r 0.5 m
 # arc, 0.05 m/s, a 0.5 m/s², j 10 m/s³; 0.1 ms servo: episodes kept short); sharp-corner and
-# corner-blend (30 mm legs, 0.02 m/s, a 0.5 m/s², j 10 m/s³, G64 P0.01 mm)
+# corner-blend (30 mm legs, 0.02 m/s, a 0.5 m/s², j 10 m/s³, G64 P0.01 mm). The lowest feeds of
+# hsm2 and the linear motor are a shop's finishing feeds (10 and 5 mm/s; issue 48): the agents'
+# envelopes bound the programmed feed from below, and parts programmed at 13–25 mm/s — most shop
+# programs — were outside the named cases' 50 and 20 mm/s
 _RANGES_TABLE = {
     # plant: (size_m, feed_m_s, max_accel_m_s2, max_jerk_m_s3, max_centripetal_m_s2,
     #         blend_tolerance_m, travel_m, max_path_time_s), the fields of PlantRanges
-    "hsm2": ((0.02, 0.2), (0.05, 0.4), 2.0, 40.0, 2.7, (10e-6, 100e-6), 0.25, 4.0),
+    "hsm2": ((0.02, 0.2), (0.01, 0.4), 2.0, 40.0, 2.7, (10e-6, 100e-6), 0.25, 4.0),
     "jee-triaxial": ((0.01, 0.1), (0.03, 0.25), 2.0, 40.0, 1.0, (10e-6, 50e-6), 0.15, 4.0),
-    "linear-motor": ((0.02, 0.3), (0.02, 0.15), 0.5, 10.0, 0.5, (10e-6, 50e-6), 0.5, 3.0),
+    "linear-motor": ((0.02, 0.3), (0.005, 0.15), 0.5, 10.0, 0.5, (10e-6, 50e-6), 0.5, 3.0),
     "friction-table": ((0.01, 0.06), (0.005, 0.04), 0.5, 10.0, 0.1, (5e-6, 50e-6), 0.1, 6.0),
 }
 PLANT_RANGES = {plant: PlantRanges(*row) for plant, row in _RANGES_TABLE.items()}

@@ -225,6 +225,7 @@ def test_cli_train_evaluate_and_models(tmp_path, gcode, capsys, sac_run):
             "train", "--plant", "friction-table", "--gcode", gcode, "--base", "pd",
             "--algo", "ppo", "--timesteps", "64", "--seed", "1", "--out", str(out),
             "--n-envs", "2", "--net-arch", "16,16", "--no-progress", "--validation-paths", "1",
+            "--teacher-parts", "2", "--teacher-trials", "2",
         ]
     )  # fmt: skip
     assert rc == 0
@@ -409,7 +410,7 @@ def test_cli_residual_law_options_reach_the_config_and_the_agent(tmp_path, gcode
             "train", "--plant", "friction-table", "--gcode", gcode, "--base", "pd",
             "--algo", "sac", "--timesteps", "60", "--out", str(out), "--net-arch", "8",
             "--no-progress", "--validation-paths", "1", "--residual-frame", "axes", "--gate",
-            "--no-observe-axes",
+            "--no-observe-axes", "--teacher", "none",
         ]
     )  # fmt: skip
     assert rc == 0

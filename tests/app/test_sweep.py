@@ -19,6 +19,7 @@ fixed:
   timesteps: 200
   validation_paths: 1
   net_arch: [16, 16]
+  teacher: none
 """
 
 

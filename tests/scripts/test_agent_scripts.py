@@ -28,6 +28,7 @@ def tiny_model(tmp_path_factory):
     cfg = TrainConfig(
         plant="friction-table", gcode=(str(gcode),), algo="sac", timesteps=200, seed=0,
         learning_starts=50, buffer_size=1000, batch_size=32, eval_freq=200, net_arch=(8, 8),
+        teacher_parts=2, teacher_trials=2,
     )  # fmt: skip
     train(cfg, out, progress=False, log=lambda s: None)
     return out
