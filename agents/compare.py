@@ -115,6 +115,7 @@ def compare(
             # no checkpoint beat the base on validation: the agent is its base (zero residual)
             row["agent_is_base"] = True
             row["agent_base"] = controller.base_name
+            row["agent_base_reason"] = controller.base_reason()
         share = getattr(controller, "outside_envelope_fraction", None)
         if callable(share) and share() is not None:
             # the share of the agent's decisions outside the ranges it was trained on

@@ -815,6 +815,17 @@ class ResidualAgent(Controller):
         self._outside += int(np.sum(rows & (f < 1.0)))
         return a
 
+    def base_reason(self) -> str:
+        """Why an agent kept as its base is its base (``agent.json``)."""
+        release = self.meta.get("release") or {}
+        if release.get("failures"):
+            n = len(release["failures"])
+            return (
+                f"the release gate refused the trained agent (worse than its base on {n} "
+                'held-out target(s), agent.json "release")'
+            )
+        return 'no checkpoint beat it on the validation set (agent.json "kept": "base")'
+
     def outside_envelope_fraction(self) -> float | None:
         """The share of the last episode's agent decisions taken outside the envelope (the
         gate faded, f < 1); None for an agent without an envelope, or kept as its base."""

@@ -55,8 +55,11 @@ def markdown(cards: list[dict]) -> str:
     ]
     for c in cards:
         kept = {"base": "the base (no checkpoint passed)", "best-validation": "best checkpoint"}
+        what = kept.get(c["kept"], c["kept"])
+        if (c.get("release") or {}).get("failures"):
+            what = "the base (the release gate refused the agent)"
         lines.append(
-            f"| `{c['model']}` ({c['base']}) | {kept.get(c['kept'], c['kept'])} | "
+            f"| `{c['model']}` ({c['base']}) | {what} | "
             f"{_r(c['heldout_mean_ratio'])} / {_r(c.get('heldout_max_mean_ratio'))} | "
             f"{_r(c['heldout_worst_ratio'])} / {_r(c.get('heldout_max_worst_ratio'))} | "
             f"{_r(c['cases_worst_ratio'])} / {_r(c.get('cases_max_worst_ratio'))} | "

@@ -10,7 +10,11 @@ one torch thread, this 2-core CPU); the run goes to ``--work/<plant>`` (default
 wrote them) are copied to ``agents/models/<plant>/`` — checkpoints, replay buffers and
 TensorBoard logs are not shipped. ``--from-run DIR`` installs a run made elsewhere (e.g. in the
 background with ``contour-env train``) after checking that its ``config.json`` is the shipped
-configuration. ``scripts/residual_scorecard.py`` then scores them against their bases.
+configuration. Installing applies the release gate (:func:`release_gate`): the kept agent is
+scored on the held-out suite and its plant's named cases, and one worse than its base in RMS
+anywhere, in max beyond 1.05x, or in max at all on the plant's own parts is installed as its
+base (``"kept": "base"``, the refusal and the refused agent's figures in ``agent.json``
+``"release"``). ``scripts/residual_scorecard.py`` then scores them against their bases.
 
 The shipped recipes stop on a training-time budget and validate every 30 s of training time, so
 a run is reproducible in its configuration, not to the bit: how many steps fit in the budget,
@@ -115,6 +119,62 @@ def install(run_dir: Path, name: str) -> Path:
     return dest
 
 
+# the release criteria of a shipped agent (issue 48), on the held-out suite and the named cases
+# of its plant: RMS at most the base's everywhere, max at most 1.05x (a tolerance is a max),
+# and on the plant's own parts (5x its top training feed, corners off the axes) max at most 1.00x
+RELEASE_MAX_RATIO = 1.05
+RELEASE_OWN_MAX_RATIO = 1.0
+
+
+def release_failures(card: dict) -> list[str]:
+    """The rows of a scorecard (:func:`agents.rl.scorecard.scorecard`) that break the release
+    criteria, as 'target: RMS r, max m' lines (empty: releasable)."""
+    out = []
+    plant = card["plant"]
+    for r in card["rows"]:
+        own = r["target"].startswith(f"{plant}/")
+        limit = RELEASE_OWN_MAX_RATIO if own else RELEASE_MAX_RATIO
+        rms, mx = r["rms_ratio"], r["max_ratio"]
+        if rms is None or mx is None or rms > 1.0 or mx > limit:
+            out.append(f"{r['target']}: RMS {rms}, max {mx} (limits 1.0, {limit})")
+    return out
+
+
+def release_gate(run_dir: Path, workers: int = 2) -> dict:
+    """Score the run's kept agent on the held-out suite and its plant's named cases and apply
+    the release criteria. An agent that breaks them is not released: the run's files are
+    installed with ``"kept": "base"`` (its base runs alone, as when no checkpoint passes
+    keep-best) and the refusal, with the refused agent's figures, in ``agent.json``
+    (``"release"``). Returns the release record. The held-out suite decides only this yes or
+    no, never which checkpoint or run is kept."""
+    import json
+
+    from agents.rl.scorecard import scorecard
+    from contour_env.io import atomic_write_json
+
+    meta_path = run_dir / "agent.json"
+    meta = json.loads(meta_path.read_text())
+    if meta.get("kept") == "base":
+        return {"released": False, "reason": "keep-best kept the base"}
+    card = scorecard(run_dir, workers=workers)
+    failures = release_failures(card)
+    record = {
+        "released": not failures,
+        "failures": failures,
+        "heldout_mean_ratio": card["heldout_mean_ratio"],
+        "heldout_max_mean_ratio": card["heldout_max_mean_ratio"],
+        "heldout_worst_ratio": card["heldout_worst_ratio"],
+        "heldout_max_worst_ratio": card["heldout_max_worst_ratio"],
+    }
+    if failures:
+        record["refused_kept"] = meta.get("kept")
+        record["refused_timesteps"] = meta.get("timesteps")
+        meta["kept"] = "base"
+    meta["release"] = record
+    atomic_write_json(meta_path, meta)
+    return record
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=",".join(SHIPPED), help="comma-separated agent names")
@@ -137,7 +197,9 @@ def main(argv=None) -> int:
         if len(names) != 1 or not args.install:
             raise SystemExit("--from-run: give one agent with --only NAME, and --install")
         check_run(Path(args.from_run), names[0])
-        print(f"installed {install(Path(args.from_run), names[0])}")
+        dest = install(Path(args.from_run), names[0])
+        _say_release(release_gate(dest), names[0])
+        print(f"installed {dest}")
         return 0
     for name in names:
         out = Path(args.work) / name
@@ -152,8 +214,21 @@ def main(argv=None) -> int:
             flush=True,
         )
         if args.install:
-            print(f"installed {install(out, name)}")
+            dest = install(out, name)
+            _say_release(release_gate(dest), name)
+            print(f"installed {dest}")
     return 0
+
+
+def _say_release(record: dict, name: str) -> None:
+    if record.get("released"):
+        print(f"{name}: released (no held-out program or named case worse than the base)")
+    elif record.get("failures"):
+        print(f"{name}: NOT released, installed as its base; the agent broke:")
+        for line in record["failures"]:
+            print(f"  {line}")
+    else:
+        print(f"{name}: installed as its base ({record.get('reason')})")
 
 
 if __name__ == "__main__":

@@ -4,9 +4,12 @@ shop (docs/RESIDUAL_TRAINING.md, "The held-out suite").
 
 Each target is scored with the project's one scoring function
 (:func:`contour_env.evaluation.evaluate`, seed 0) for the agent and for its base controller;
-a row holds both RMS and max contour errors, the ratio agent / base and the RMS effort per
-axis. :func:`summary` reduces the rows to what the acceptance reads: the worst ratio over all
-targets and the mean ratio over the held-out programs.
+a row holds both RMS and max contour errors, the ratios agent / base (both figures taken at
+least at one encoder count of the plant's coarsest axis: below it a difference is
+quantisation, not a property — hsm2's 2 µm; the friction table's and the linear motor's 0.1 µm
+counts never bind) and the RMS effort per axis. :func:`summary` reduces the rows to what the
+acceptance reads: the worst ratio over all targets and the mean ratio over the held-out
+programs.
 
 The held-out programs are the only place where this module reads ``tests/data/heldout/``;
 training never does (:mod:`agents.rl.heldout`).
@@ -78,9 +81,9 @@ def score_target(model_dir, kind: str, label: str, env_kwargs: dict) -> dict:
     base = evaluate(gym.make(ENV_ID, **env_kwargs), make_controller(agent.base_name))
     mine = evaluate(gym.make(ENV_ID, **env_kwargs), agent)
     b, a = base["rms_contour_error_um"], mine["rms_contour_error_um"]
-    ratio = a / b if (a is not None and b) and mine["completed"] else math.inf
     bm, am = base["max_contour_error_um"], mine["max_contour_error_um"]
-    max_ratio = am / bm if (am is not None and bm) and mine["completed"] else math.inf
+    ratio = floored_ratio(a, b, base, mine)
+    max_ratio = floored_ratio(am, bm, base, mine)
     effort = [
         x / y if y > EFFORT_FLOOR_N else None
         for x, y in zip(mine["rms_effort"], base["rms_effort"], strict=True)
@@ -96,8 +99,19 @@ def score_target(model_dir, kind: str, label: str, env_kwargs: dict) -> dict:
         "max_ratio": None if not math.isfinite(max_ratio) else max_ratio,
         "effort_ratio": effort,
         "agent_completed": bool(mine["completed"]),
+        "encoder_resolution_um": base.get("encoder_resolution_um"),
         "outside_envelope_fraction": mine.get("outside_envelope_fraction"),
     }
+
+
+def floored_ratio(a, b, base: dict, mine: dict) -> float:
+    """agent / base with both at least one encoder count (``encoder_resolution_um``, the
+    coarsest axis's): a difference below one count is quantisation, not a property (∞ when
+    the agent did not complete the part)."""
+    if a is None or not b or not mine["completed"]:
+        return math.inf
+    res = float(base.get("encoder_resolution_um") or 0.0)
+    return max(a, res) / max(b, res)
 
 
 def _score_job(job):
@@ -134,6 +148,7 @@ def scorecard(model_dir, *, workers: int = 1, progress=None) -> dict:
         "plant": meta["plant"],
         "base": meta["base"],
         "kept": meta.get("kept"),
+        "release": meta.get("release"),
         "residual_frame": meta.get("residual_frame", "axes"),
         "gate": bool(meta.get("gate", False)),
         "rows": rows,

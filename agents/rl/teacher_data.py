@@ -54,6 +54,9 @@ class TeacherData:
     weight: np.ndarray
     part: np.ndarray
     lessons: list = field(default_factory=list)
+    # the parts (indices) that are the run's own training cases and G-code files: the
+    # student's regression gives them NOMINAL_SHARE of its weight (agents.rl.pretrain)
+    nominal_parts: tuple = ()
     envelope: Envelope | None = None
     seconds: float = 0.0
 
@@ -254,6 +257,9 @@ def collect(cfg, n_parts: int = DEFAULT_TEACHER_PARTS, *, progress=None, log=Non
     base = law.pop("base")
     teacher = ResidualTeacher(base, law, **cfg.teacher_kwargs())
     parts = teacher_parts(cfg, n_parts)
+    from .tasks import TaskSampler
+
+    n_nominal = len(TaskSampler(cfg, cfg.seed).nominal_tasks())
     chunks, lessons = [], []
     n_axes = None
     envelope = None
@@ -294,6 +300,7 @@ def collect(cfg, n_parts: int = DEFAULT_TEACHER_PARTS, *, progress=None, log=Non
         weight=data["weight"].astype(np.float32),
         part=data["part"].astype(np.int64),
         lessons=lessons,
+        nominal_parts=tuple(range(n_nominal)),
         envelope=envelope,
         seconds=time.perf_counter() - t0,
     )

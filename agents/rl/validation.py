@@ -1,6 +1,11 @@
 """Keep-best-by-validation: score the policy on a fixed set of generated paths and keep the
 checkpoint that does best against the base controller (docs/RESIDUAL_TRAINING.md).
 
+Ratios take both figures at least at one encoder count of the part's plant (the coarsest
+axis's): a difference below one count is quantisation, not a property of the controller (hsm2's
+2 µm x encoder: a part the base follows at 0.9 µm RMS made every pretrained hsm2 student
+"2.2x worse" at 1.9 µm).
+
 The rule that makes an agent never worse than its base, as a mechanism: the **base itself**
 (the zero residual) is the first candidate, with score 1. A checkpoint is *eligible* when its
 RMS contour error is at most the base's on **every** validation path (ratio ≤ 1 path by path)
@@ -62,35 +67,43 @@ class Validator:
         self.min_gain = float(cfg.keep_min_gain)
         self.max_ratio = float(cfg.keep_max_ratio)
         base = [self._score(p, make_controller(cfg.base)) for p in self.paths]
-        self.base_per_path = [rms for rms, _ in base]
-        self.base_max_per_path = [mx for _, mx in base]
+        self.base_per_path = [rms for rms, _, _ in base]
+        self.base_max_per_path = [mx for _, mx, _ in base]
+        # one encoder count per path (µm, the coarsest axis): below it a difference is not a
+        # property of the controller (the README's lesson), so ratios floor both figures there
+        self.resolution_per_path = [res for _, _, res in base]
         self.base_rms = _mean(self.base_per_path)
         # the max contour error per path (µm) of the last policy scored (None: not scored)
         self.last_max = None
 
-    def _score(self, part, policy) -> tuple[float, float]:
+    def _score(self, part, policy) -> tuple[float, float, float]:
         env = gym.make(ENV_ID, **part.env_kwargs(), **self.env_config)
         m = evaluate(env, policy, seed=part.reset_seed)
         rms, mx = m["rms_contour_error_um"], m["max_contour_error_um"]
+        res = float(m.get("encoder_resolution_um") or 0.0)
         if rms is None or not m["completed"]:
-            return math.inf, math.inf
-        return float(rms), float(mx)
+            return math.inf, math.inf, res
+        return float(rms), float(mx), res
 
     def __call__(self, meta: dict, model, normalizer) -> tuple[float, list]:
         agent = ResidualAgent.from_parts(meta, model, normalizer)
         scored = [self._score(p, agent) for p in self.paths]
-        per_path = [rms for rms, _ in scored]
-        self.last_max = [mx for _, mx in scored]
+        per_path = [rms for rms, _, _ in scored]
+        self.last_max = [mx for _, mx, _ in scored]
         return _mean(per_path), per_path
 
     def ratios(self, per_path: list) -> list:
         """Agent / base RMS per path (∞ where the agent did not complete a path the base did;
         1 where neither did, 0 where only the base failed)."""
-        return _ratios(per_path, self.base_per_path)
+        return _ratios(per_path, self.base_per_path, getattr(self, "resolution_per_path", None))
 
     def max_ratios(self, per_path_max: list) -> list:
         """Agent / base max contour error per path (as :meth:`ratios`)."""
-        return _ratios(per_path_max, getattr(self, "base_max_per_path", None) or [])
+        return _ratios(
+            per_path_max,
+            getattr(self, "base_max_per_path", None) or [],
+            getattr(self, "resolution_per_path", None),
+        )
 
     def judge(self, per_path: list, per_path_max: list | None = None) -> tuple[float, bool]:
         """(score, eligible): the mean RMS ratio to the base, and whether no path is worse in
@@ -108,9 +121,13 @@ class Validator:
         return [p.describe() for p in self.paths]
 
 
-def _ratios(agent: list, base: list) -> list:
+def _ratios(agent: list, base: list, floor=None) -> list:
+    """Agent / base per path, both taken at least at one encoder count (``floor``, µm per
+    path; none: 0)."""
     out = []
-    for a, b in zip(agent, base, strict=True):
+    floor = floor or [0.0] * len(base)
+    for a, b, f in zip(agent, base, floor, strict=True):
+        a, b = max(a, f), max(b, f)
         if not math.isfinite(b):
             out.append(1.0 if not math.isfinite(a) else 0.0)
         elif not math.isfinite(a):
@@ -190,6 +207,9 @@ def validation_record(validator: Validator, base: str, curve: list, best: BestKe
         "base": base,
         "base_rms_contour_error_um": _json_number(validator.base_rms),
         "base_per_path_um": [_json_number(x) for x in validator.base_per_path],
+        "resolution_per_path_um": [
+            _json_number(x) for x in getattr(validator, "resolution_per_path", None) or []
+        ],
         "base_max_per_path_um": [
             _json_number(x) for x in getattr(validator, "base_max_per_path", None) or []
         ],

@@ -151,11 +151,8 @@ def cmd_compare(args) -> int:
             text += f", RMS orientation error {theta:.2f}″" if theta is not None else ""
             print(f"  {name}: RMS contour error {text}{status}", flush=True)
             if row.get("agent_is_base"):
-                print(
-                    f"    ({name}: the agent is its base {row['agent_base']}: no checkpoint beat "
-                    'it on the validation set, agent.json "kept": "base")',
-                    flush=True,
-                )
+                why = row.get("agent_base_reason") or "no checkpoint beat it on validation"
+                print(f"    ({name}: the agent is its base {row['agent_base']}: {why})", flush=True)
             if row.get("outside_envelope_fraction") is not None:
                 print(
                     f"    ({name}: {row['outside_envelope_fraction']:.1%} of its decisions outside "

@@ -246,8 +246,8 @@ def cmd_evaluate(args) -> int:
     agent = ResidualAgent(args.model)
     if agent.is_base:
         print(
-            f"the agent in {args.model} is its base {agent.base_name}: no checkpoint beat it on "
-            'the validation set (agent.json "kept": "base"); its rows equal the base\'s'
+            f"the agent in {args.model} is its base {agent.base_name}: {agent.base_reason()}; "
+            "its rows equal the base's"
         )
     kw = target_kwargs(args)
     env = gym.make(ENV_ID, **kw)

@@ -183,10 +183,16 @@ def test_real_validation_keeps_the_argmin_and_rescoring_it_agrees(tmp_path):
     # points no worse than the base on any path, if below the base's 1
     base = rec["base_per_path_um"]
     base_max = rec["base_max_per_path_um"]
+    counts = rec["resolution_per_path_um"]  # one encoder count: 0.1 um on the friction table
     scores = []
     for p in rec["curve"]:
-        r = [a / b for a, b in zip(p["per_path_um"], base, strict=True)]
-        rm = [a / b for a, b in zip(p["per_path_max_um"], base_max, strict=True)]
+        r = [
+            max(a, f) / max(b, f) for a, b, f in zip(p["per_path_um"], base, counts, strict=True)
+        ]
+        rm = [
+            max(a, f) / max(b, f)
+            for a, b, f in zip(p["per_path_max_um"], base_max, counts, strict=True)
+        ]
         assert p["ratio_to_base"] == pytest.approx(r, rel=1e-12)
         assert p["max_ratio_to_base"] == pytest.approx(rm, rel=1e-12)
         ok = max(r) <= 1.0 and max(rm) <= cfg.keep_max_ratio and np.mean(r) <= 0.9
@@ -303,3 +309,21 @@ def test_old_configurations_have_no_max_rule_and_no_teacher():
     assert TrainConfig(**{**TINY, "teacher": "ilc-contour"}).keep_max_ratio == 1.0
     with pytest.raises(ValueError, match=r"keep_max_ratio: must be a number >= 1"):
         TrainConfig(**{**TINY, "keep_max_ratio": 0.9})
+
+
+def test_ratios_floor_both_figures_at_one_encoder_count():
+    """Below one count a difference is quantisation: 1.9 um against a base's 0.9 um on a 2 um
+    encoder is a tie, 3 um against 0.9 um is 1.5x."""
+
+    class V(Validator):
+        def __init__(self):
+            self.base_per_path = [0.9, 10.0]
+            self.base_max_per_path = [1.5, 30.0]
+            self.resolution_per_path = [2.0, 2.0]
+            self.min_gain = 0.0
+            self.max_ratio = 1.0
+
+    v = V()
+    assert v.ratios([1.9, 5.0]) == [1.0, 0.5]
+    assert v.ratios([3.0, 5.0]) == [1.5, 0.5]
+    assert v.max_ratios([1.99, 30.0]) == [1.0, 1.0]

@@ -131,3 +131,58 @@ def test_installing_a_run_checks_that_it_is_the_shipped_configuration(tiny_model
         mod.check_run(tmp_path, "friction-table")
     with pytest.raises(SystemExit, match="--only NAME"):
         mod.main(["--from-run", str(tiny_model), "--only", "friction-table"])
+
+
+def test_the_release_gate_refuses_an_agent_worse_than_its_base_anywhere():
+    """Issue 48's release criteria: RMS <= 1 everywhere, max <= 1.05 (<= 1.00 on the plant's
+    own parts); a refused agent is installed as its base."""
+    mod = _script("train_agents")
+
+    def row(target, rms, mx):
+        return {"target": target, "rms_ratio": rms, "max_ratio": mx}
+
+    card = {
+        "plant": "hsm2",
+        "rows": [
+            row("hsm2-circle-II", 0.7, 1.04),
+            row("cam_lobe.nc", 1.0, 1.0),
+            row("hsm2/rotated_corners.nc", 0.8, 1.0),
+        ],
+    }
+    assert mod.release_failures(card) == []
+    card["rows"].append(row("hsm2-payload", 0.98, 1.067))
+    card["rows"].append(row("hsm2/fast_traverse.nc", 1.0, 1.01))
+    card["rows"].append(row("gear_profile.ngc", 1.001, 0.9))
+    card["rows"].append(row("star_exact_stop.nc", None, None))
+    bad = mod.release_failures(card)
+    assert [b.split(":")[0] for b in bad] == [
+        "hsm2-payload", "hsm2/fast_traverse.nc", "gear_profile.ngc", "star_exact_stop.nc"
+    ]  # fmt: skip
+
+
+def test_a_refused_agent_is_installed_as_its_base(tiny_model, tmp_path, monkeypatch):
+    import shutil
+
+    from agents.rl import scorecard as sc
+
+    mod = _script("train_agents")
+    d = tmp_path / "run"
+    shutil.copytree(tiny_model, d)
+    meta = json.loads((d / "agent.json").read_text())
+    meta["kept"] = "best-validation"
+    (d / "agent.json").write_text(json.dumps(meta))
+    fake = {
+        "plant": "friction-table",
+        "rows": [{"target": "cam_lobe.nc", "rms_ratio": 0.5, "max_ratio": 1.2}],
+        "heldout_mean_ratio": 0.5, "heldout_max_mean_ratio": 1.2,
+        "heldout_worst_ratio": 0.5, "heldout_max_worst_ratio": 1.2,
+    }  # fmt: skip
+    monkeypatch.setattr(sc, "scorecard", lambda *a, **k: fake)
+    rec = mod.release_gate(d)
+    assert rec["released"] is False and rec["refused_kept"] == "best-validation"
+    agent = ResidualAgent(d)
+    assert agent.is_base and "release gate refused" in agent.base_reason()
+    fake["rows"][0]["max_ratio"] = 0.9
+    meta["kept"] = "best-validation"
+    (d / "agent.json").write_text(json.dumps(meta))
+    assert mod.release_gate(d)["released"] is True and not ResidualAgent(d).is_base
