@@ -186,9 +186,7 @@ def test_real_validation_keeps_the_argmin_and_rescoring_it_agrees(tmp_path):
     counts = rec["resolution_per_path_um"]  # one encoder count: 0.1 um on the friction table
     scores = []
     for p in rec["curve"]:
-        r = [
-            max(a, f) / max(b, f) for a, b, f in zip(p["per_path_um"], base, counts, strict=True)
-        ]
+        r = [max(a, f) / max(b, f) for a, b, f in zip(p["per_path_um"], base, counts, strict=True)]
         rm = [
             max(a, f) / max(b, f)
             for a, b, f in zip(p["per_path_max_um"], base_max, counts, strict=True)
