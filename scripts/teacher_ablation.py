@@ -86,11 +86,20 @@ def markdown(result: dict) -> str:
         return f"{s['mean']:.2f} ({s['min']:.2f}–{s['max']:.2f})"
 
     lines = [
-        "| variant | held-out RMS: mean | held-out RMS: worst | held-out max: mean | "
-        "held-out max: worst | kept as base | command |",
-        "|---|---|---|---|---|---|---|",
+        "| variant | kept: held-out RMS mean | kept: RMS worst | kept: max mean | kept: max "
+        "worst | kept as base | final policy: RMS mean | final: RMS worst | final: max worst "
+        "| command |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
+    finals = result.get("summary_final", {})
     for variant, s in result["summary"].items():
+        f = finals.get(variant)
+        fin = (
+            f"{cell(f['heldout_mean_ratio'])} | {cell(f['heldout_worst_ratio'])} | "
+            f"{cell(f['heldout_max_worst_ratio'])}"
+            if f
+            else "– | – | –"
+        )
         cmd = (
             f"`python scripts/teacher_ablation.py --plant {result['plant']} --variants "
             f"{variant} --budget {result['budget_s']:g} --seeds "
@@ -99,7 +108,7 @@ def markdown(result: dict) -> str:
         lines.append(
             f"| `{variant}` | {cell(s['heldout_mean_ratio'])} | {cell(s['heldout_worst_ratio'])}"
             f" | {cell(s['heldout_max_mean_ratio'])} | {cell(s['heldout_max_worst_ratio'])} | "
-            f"{s['kept_base']} of {s['seeds']} | {cmd} |"
+            f"{s['kept_base']} of {s['seeds']} | {fin} | {cmd} |"
         )
     return "\n".join(lines)
 
@@ -156,11 +165,17 @@ def main(argv=None) -> int:
     out_json = Path(args.out or ROOT / "docs" / f"teacher_ablation_{args.plant}.json")
     previous = json.loads(out_json.read_text()) if out_json.is_file() else {}
     cards_by_variant = {v: [] for v in variants}
+    finals_by_variant = {v: [] for v in variants}
     for (v, s), out in runs.items():
         card = _card(out, args.parallel)
         meta = json.loads((out / "agent.json").read_text())
         card.update(seed=s, variant=v, run_wall_s=meta.get("run_wall_s"))
         cards_by_variant[v].append(card)
+        # what the variant learned, whatever keep-best decided: the policy at the end of the
+        # run (a teacher-only run's is its pretrained student)
+        final = _card(out / "final", args.parallel)
+        final.update(seed=s, variant=v, kept="final")
+        finals_by_variant[v].append(final)
         print(
             f"{v:18s} seed {s}: kept ({card['kept']}) held-out RMS mean "
             f"{card['heldout_mean_ratio']}, worst {card['heldout_worst_ratio']}; max mean "
@@ -168,8 +183,11 @@ def main(argv=None) -> int:
             flush=True,
         )
     # variants run by an earlier call with the same settings are kept beside these
-    cards = dict(previous.get("cards", {})) if previous.get("budget_s") == args.budget else {}
+    same = previous.get("budget_s") == args.budget
+    cards = dict(previous.get("cards", {})) if same else {}
     cards.update(cards_by_variant)
+    finals = dict(previous.get("final_cards", {})) if same else {}
+    finals.update(finals_by_variant)
     order = [v for v in VARIANTS if v in cards]
     result = {
         "plant": args.plant,
@@ -179,7 +197,9 @@ def main(argv=None) -> int:
         "seeds": seeds,
         "wall_s": time.perf_counter() - t0,
         "summary": summarise({v: cards[v] for v in order}),
+        "summary_final": summarise({v: finals[v] for v in order if v in finals}),
         "cards": {v: cards[v] for v in order},
+        "final_cards": {v: finals[v] for v in order if v in finals},
     }
     atomic_write_json(out_json, result)
     print(f"wrote {out_json}")

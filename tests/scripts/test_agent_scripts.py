@@ -186,3 +186,19 @@ def test_a_refused_agent_is_installed_as_its_base(tiny_model, tmp_path, monkeypa
     meta["kept"] = "best-validation"
     (d / "agent.json").write_text(json.dumps(meta))
     assert mod.release_gate(d)["released"] is True and not ResidualAgent(d).is_base
+
+
+def test_teacher_ablation_commands_and_table_from_its_record():
+    """scripts/teacher_ablation.py: each variant is one contour-env train command with its
+    options; the README table is made from the recorded cards (docs/teacher_ablation_*.json)."""
+    mod = _script("teacher_ablation")
+    cmd = mod.command("friction-table", "ccc", 180, 2, "teacher+rl-noenv", Path("o"))
+    assert cmd[cmd.index("--teacher") + 1] == "ilc-contour" and "--no-envelope" in cmd
+    assert cmd[cmd.index("--time-budget") + 1] == "180" and cmd[cmd.index("--seed") + 1] == "2"
+    assert "--no-fine-tune" in mod.command("hsm2", "pd", 60, 0, "teacher", Path("o"))
+    rec = json.loads((ROOT / "docs" / "teacher_ablation_friction-table.json").read_text())
+    assert set(rec["cards"]) == set(mod.VARIANTS) and rec["seeds"] == [0, 1, 2]
+    assert rec["summary"] == mod.summarise(rec["cards"])
+    table = mod.markdown(rec)
+    assert table in (ROOT / "README.md").read_text()
+    assert len(table.splitlines()) == 2 + len(mod.VARIANTS)
