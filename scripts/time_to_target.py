@@ -49,6 +49,11 @@ from contour_env.io import atomic_write_json, atomic_write_text
 
 CASE = "lm-circle3d"
 BASE = "ccc"
+# the trainer's settings of the runs the table records (issue 34, before the teacher, the
+# envelope and the max rules of issue 48): RL from scratch on the full observation
+BEFORE_TEACHER = dict(
+    teacher="none", observation="full", envelope=False, max_penalty=0.0, keep_max_ratio=None
+)
 # configuration name -> TrainConfig keywords (besides case, base, seed, budget, evaluation)
 CONFIGS = {
     # SB3 SAC on one env, one gradient step per agent step (sb3's default)
@@ -90,6 +95,7 @@ def run_config(
         checkpoint_freq=10**9,
         torch_threads=1,
         **{
+            **BEFORE_TEACHER,
             **keywords,
             "validation_paths": validation_paths,
             "eval_freq": 10**9,

@@ -149,8 +149,8 @@ class TrainConfig:
     keep_min_gain: float = 0.10
     # ... and no validation part's max contour error may exceed keep_max_ratio × the base's: a
     # tolerance is a max, and an agent that lowers the RMS while raising the max has not helped
-    # (issue 48; inf in configurations written before it)
-    keep_max_ratio: float = 1.0
+    # (issue 48; None: no max rule, as in configurations written before it)
+    keep_max_ratio: float | None = 1.0
     # learner
     net_arch: tuple = (64, 64)
     learning_rate: float = 3e-4
@@ -341,9 +341,17 @@ class TrainConfig:
             _num(self, key, 0.0, math.inf)
         _num(self, "learning_rate", 0.0, 1.0, open_low=True)
         v = self.keep_max_ratio
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 1.0:
-            raise ValueError(f"keep_max_ratio: must be a number >= 1 (or inf), got {v!r}")
-        object.__setattr__(self, "keep_max_ratio", float(v))
+        if v is not None:
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float))
+                or not (math.isfinite(v) and v >= 1.0)
+            ):
+                raise ValueError(
+                    f"keep_max_ratio: must be a finite number >= 1 (or None: no max rule), "
+                    f"got {v!r}"
+                )
+            object.__setattr__(self, "keep_max_ratio", float(v))
         if self.learning_rate_final is not None:
             _num(self, "learning_rate_final", 0.0, self.learning_rate, open_low=True)
         _num(self, "spline_size_m", 0.0, 10.0, open_low=True)
@@ -470,7 +478,7 @@ class TrainConfig:
         data.setdefault("keep_min_gain", 0.0)
         # ... and before the teacher and the envelope (issue 48): RL from scratch, no envelope
         data.setdefault("teacher", "none")
-        data.setdefault("keep_max_ratio", math.inf)
+        data.setdefault("keep_max_ratio", None)
         data.setdefault("max_penalty", 0.0)
         data.setdefault("envelope", False)
         known = {f.name for f in dataclasses.fields(cls)}

@@ -65,7 +65,7 @@ class Validator:
         )
         self.env_config = cfg.env_config()
         self.min_gain = float(cfg.keep_min_gain)
-        self.max_ratio = float(cfg.keep_max_ratio)
+        self.max_ratio = math.inf if cfg.keep_max_ratio is None else float(cfg.keep_max_ratio)
         base = [self._score(p, make_controller(cfg.base)) for p in self.paths]
         self.base_per_path = [rms for rms, _, _ in base]
         self.base_max_per_path = [mx for _, mx, _ in base]

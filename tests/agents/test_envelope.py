@@ -82,6 +82,9 @@ def _agent_with(tmp_path, hi):
     d = tmp_path / "agent"
     shutil.copytree(src, d)
     meta = json.loads((d / "agent.json").read_text())
+    # the shipped network as a trained agent (whatever the release gate decided for it)
+    meta["kept"] = "best-validation"
+    meta.pop("release", None)
     meta["envelope"] = Envelope(2, hi=hi).to_dict()
     (d / "agent.json").write_text(json.dumps(meta))
     return d
@@ -104,7 +107,11 @@ def test_an_agent_outside_its_envelope_is_its_base_to_the_bit(tmp_path, compiled
 def test_a_wide_envelope_changes_nothing_and_both_loops_agree(tmp_path):
     d = _agent_with(tmp_path, np.full(8, 1e9))
     kw = {"case": "sharp-corner"}
-    plain = ResidualAgent(shipped_model_for("friction-table"))
+    plain_dir = _agent_with(tmp_path / "plain", np.zeros(8))
+    meta = json.loads((plain_dir / "agent.json").read_text())
+    meta["envelope"] = None
+    (plain_dir / "agent.json").write_text(json.dumps(meta))
+    plain = ResidualAgent(plain_dir)
     wide = ResidualAgent(d)
     a = run_episode(gym.make(ENV_ID, **kw), plain)
     b = run_episode(gym.make(ENV_ID, **kw), wide)

@@ -73,9 +73,9 @@ def test_residual_benchmark_scores_agent_and_base_on_polygon_and_spline(tiny_mod
     assert mod.main(["--models", str(tiny_model), "--json", str(js)]) == 0
     rows = json.loads(js.read_text())["rows"]
     # the friction table's named cases, the held-out programs, the polygon and the spline
-    from agents.rl.scorecard import heldout_programs
+    from agents.rl.scorecard import heldout_programs, program_label
 
-    held = [p.name for p in heldout_programs(2)]
+    held = [program_label(p) for p in heldout_programs(2, "friction-table")]
     assert [r["target"] for r in rows] == [
         "sharp-corner",
         "corner-blend",
@@ -92,7 +92,8 @@ def test_residual_benchmark_scores_agent_and_base_on_polygon_and_spline(tiny_mod
     # hsm2 agents are scored on every hsm2 case (its training case first) and the suite
     targets = [t for t, _ in mod.test_targets({"plant": "hsm2", "cases": ["hsm2-circle-II"]})]
     assert targets[:4] == ["hsm2-circle-I", "hsm2-circle-II", "hsm2-circle-III", "hsm2-payload"]
-    assert targets[4:] == [*held, "polygon", "spline"]
+    held_hsm2 = [program_label(p) for p in heldout_programs(2, "hsm2")]
+    assert targets[4:] == [*held_hsm2, "polygon", "spline"]
 
 
 def _card(held, cases, kept):
