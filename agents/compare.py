@@ -127,6 +127,19 @@ def compare(
     return {"case": setup.name, "plant": setup.plant.name, "results": results, "records": records}
 
 
+def check_randomizable(**env_kwargs):
+    """The env of ``env_kwargs`` (unwrapped) if its plant takes plant variations (the feed-drive
+    plants); ValueError saying why not for the five-axis plant."""
+    probe = gym.make(ENV_ID, **env_kwargs).unwrapped
+    if is_five_axis_env(probe):
+        raise ValueError(
+            "randomize: plant variations are not implemented for the five-axis plant (its "
+            "parameters are masses, inertias and offsets of a coupled model, not per-axis "
+            "drives); compare it on the nominal plant and with --ideal"
+        )
+    return probe
+
+
 def robustness(
     controllers: list[str],
     fraction: float,
@@ -152,13 +165,7 @@ def robustness(
     ``{"time_s": (n,), "contour_error_m": (n, episodes)}``, ε after each step, NaN once a
     variation has stopped or where ε is not finite."""
     check_controllers(list(controllers))
-    probe = gym.make(ENV_ID, **env_kwargs).unwrapped
-    if is_five_axis_env(probe):
-        raise ValueError(
-            "randomize: plant variations are not implemented for the five-axis plant (its "
-            "parameters are masses, inertias and offsets of a coupled model, not per-axis "
-            "drives); compare it on the nominal plant and with --ideal"
-        )
+    probe = check_randomizable(**env_kwargs)
     variants = randomized(probe.plant.params, fraction, episodes, seed=seed)
     rows = []
     for name in controllers:

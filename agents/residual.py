@@ -51,7 +51,6 @@ Classes:
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -64,6 +63,7 @@ from gymnasium.vector.utils import batch_space
 from contour_env.env.core import core_of
 
 from .base import Controller
+from .model_files import MODEL_FORMAT, OBSERVATIONS, RESIDUAL_AXES  # noqa: F401 (re-exported)
 from .registry import FIVE_AXIS_CONTROLLERS, controller_names, make_controller, plant_family_of
 from .residual_law import (
     REST_FADE_FEED_FRACTION,
@@ -92,14 +92,11 @@ def default_scale(plant_name: str) -> float:
     return DEFAULT_SCALE_BY_PLANT.get(PLANT_ALIASES.get(plant_name, plant_name), DEFAULT_SCALE)
 
 
-# what of the env observation the agent sees (see observation_fields)
-OBSERVATIONS = ("full", "state", "errors")
-# which axes take a residual (see path_axes_mask)
-RESIDUAL_AXES = ("path", "all")
+# OBSERVATIONS (what of the env observation the agent sees, see observation_fields) and
+# RESIDUAL_AXES (which axes take a residual, see path_axes_mask): agents.model_files
 # an axis whose reference moves less than this over the episode is not used by the path (m)
 AXIS_USE_TOL_M = 1e-6
 DEFAULT_AGENT_PERIOD_S = 1e-3
-MODEL_FORMAT = "contour_env.residual_agent/1"
 
 
 def default_action_repeat(servo_period_s: float) -> int:
@@ -598,7 +595,10 @@ class ResidualVectorWrapper(VectorWrapper):
 
 
 def read_model_metadata(model_dir) -> dict:
-    """The ``agent.json`` of a trained model directory (format, plant, axes, base, scale, …)."""
+    """The ``agent.json`` of a trained model directory (format, plant, axes, base, scale, …),
+    checked key by key (:func:`agents.model_files.read_agent_json`)."""
+    from .model_files import read_agent_json
+
     d = Path(model_dir)
     meta_path = d / "agent.json"
     if not d.is_dir():
@@ -608,15 +608,7 @@ def read_model_metadata(model_dir) -> dict:
             f"model: {d} holds no agent.json; not a trained residual agent (train one with "
             "`contour-env train`)"
         )
-    try:
-        meta = json.loads(meta_path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"model: {meta_path} is not valid JSON ({exc})") from None
-    if meta.get("format") != MODEL_FORMAT:
-        raise ValueError(
-            f"model: {meta_path} has format {meta.get('format')!r}, expected {MODEL_FORMAT!r}"
-        )
-    return meta
+    return read_agent_json(meta_path)
 
 
 class ResidualAgent(Controller):
@@ -648,7 +640,7 @@ class ResidualAgent(Controller):
         self._setup(
             meta,
             load_model(d / "model.zip", meta["algo"], device=device),
-            load_normalization(d / "normalization.json"),
+            load_normalization(d / "normalization.json", int(meta["obs_dim"])),
             deterministic,
         )
         self.model_dir = d
@@ -718,6 +710,12 @@ class ResidualAgent(Controller):
             raise ValueError(
                 f"env: the agent in {self.model_dir} was trained for a {want_axes}-axis plant "
                 f"({want_plant!r}); the env has {plant.n_axes} axes ({plant.name!r})"
+            )
+        want_T = self.meta.get("servo_period_s")
+        if want_T is not None and not math.isclose(want_T, core.T, rel_tol=1e-9):
+            raise ValueError(
+                f"env: the agent in {self.model_dir} was trained at a servo period of "
+                f"{want_T!r} s (agent.json: servo_period_s); the env's is {core.T!r} s"
             )
         if plant.name != want_plant:
             raise ValueError(

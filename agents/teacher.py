@@ -63,10 +63,11 @@ from contour_env.env.layout import EpisodeTrace
 from contour_env.env.rollout import empty_record
 
 from .ilc import DEFAULT_Q_CUTOFF_HZ, FALLBACK_Q_CUTOFF_HZ, shift_ahead
+from .model_files import TEACHER_NAMES
 from .pd import default_bandwidth
 from .qfilter import ZeroPhaseLowPass
 
-TEACHERS = ("ilc-contour", "none")
+TEACHERS = TEACHER_NAMES  # agents.model_files: what agent.json may say
 # learning gains per task-frame direction (tangential, normal, binormal): a third of
 # ilc-contour's (0.3, 0.8, 0.8). On top of CCC, whose integral coupling and corner logic make
 # the loop the learning acts on stiffer and switching, ilc-contour's gains diverged on generated

@@ -15,7 +15,8 @@ from contour_env.env.contouring_env import ContouringEnv
 from contour_env.env.vector_env import ContouringVectorEnv
 from contour_env.paths import circle
 from contour_env.paths.gcode import parse_gcode
-from contour_env.plants.params import PARAM_RANGES, params_from_mapping
+from contour_env.plants import params_from_mapping
+from contour_env.plants.params import PARAM_RANGES
 
 FAST = settings(
     max_examples=40,

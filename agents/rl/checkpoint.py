@@ -82,10 +82,15 @@ def load_model(path, algo: str, *, env=None, device: str = "cpu"):
             sbx_module()
         except ValueError as exc:
             raise ValueError(f"model: {path} is an {algo} model (JAX); {exc}") from None
+    from agents.model_files import check_model_zip
+
+    check_model_zip(path)
     try:
         return algo_class(algo).load(path, env=env, device=device)
-    except (ValueError, FileNotFoundError):
+    except FileNotFoundError:
         raise
+    except ValueError as exc:  # a JSON error in another member, a shape mismatch ...
+        raise ValueError(f"model: {path} cannot be loaded ({type(exc).__name__}: {exc})") from None
     except Exception as exc:  # zipfile.BadZipFile, pickle / torch errors
         raise ValueError(f"model: {path} cannot be loaded ({type(exc).__name__}: {exc})") from None
 
@@ -117,15 +122,16 @@ def normalizer_of(vecnormalize) -> ObsNormalizer:
     return ObsNormalizer(rms.mean, rms.var, vecnormalize.clip_obs, vecnormalize.epsilon)
 
 
-def load_normalization(path) -> ObsNormalizer:
+def load_normalization(path, obs_dim: int | None = None) -> ObsNormalizer:
+    """The observation statistics in ``normalization.json``, checked key by key
+    (:func:`agents.model_files.read_normalization`; ``obs_dim``: agent.json's)."""
+    from agents.model_files import read_normalization
+
     path = Path(path)
-    try:
-        d = json.loads(path.read_text())
-        return ObsNormalizer(d["mean"], d["var"], d["clip_obs"], d["epsilon"])
-    except FileNotFoundError:
-        raise FileNotFoundError(f"model: no normalisation statistics {path}") from None
-    except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise ValueError(f"model: {path} is damaged ({type(exc).__name__}: {exc})") from None
+    if not path.is_file() and not path.is_dir():
+        raise FileNotFoundError(f"model: no normalisation statistics {path}")
+    d = read_normalization(path, obs_dim)
+    return ObsNormalizer(d["mean"], d["var"], d["clip_obs"], d["epsilon"])
 
 
 def write_manifest(folder: Path) -> None:

@@ -29,6 +29,7 @@ Training seeds are drawn below :data:`VALIDATION_SEED_BASE`; the validation set
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from functools import cache
 
@@ -37,6 +38,7 @@ import numpy as np
 from contour_env.paths import PathGeometry, arc, circle, helix, spline
 from contour_env.plants import Plant
 from contour_env.plants.catalog import PLANT_ALIASES
+from contour_env.plants.from_file import is_plant_file
 from contour_env.plants.randomize import randomized
 
 from ..records import attributes
@@ -149,15 +151,63 @@ class GeneratedPath:
         }
 
 
-def plant_key(plant: str) -> str:
-    """The catalogue name of a plant (aliases resolved); a plant without ranges is an error."""
+def plant_key(plant) -> str:
+    """The catalogue name of a plant (aliases resolved), or a plant file's path; a plant
+    without ranges is an error."""
+    if is_plant_file(plant):
+        key = os.fspath(plant)
+        plant_ranges(key)  # the file holds what the parts may be
+        return key
     key = PLANT_ALIASES.get(plant, plant)
     if key not in PLANT_RANGES:
         raise ValueError(
             f"plant: no training path families for {plant!r}; plants with families: "
-            f"{', '.join(PLANT_RANGES)}"
+            f"{', '.join(PLANT_RANGES)}, or a plant file (.json) with travel and feed_range"
         )
     return key
+
+
+# a plant file's parts, scaled to what its trace covered (contour_env.identify.result): sizes
+# 10–60 % of the travel (the named plants': 8–80 %), blend tolerances as the named plants',
+# the centripetal limit half the acceleration, the jerk 20× it, episodes of at most 4 s (3 s
+# below a 0.5 ms servo period, as the linear motor's)
+FILE_SIZE_FRACTIONS = (0.1, 0.6)
+FILE_BLEND_TOLERANCE_M = (10e-6, 50e-6)
+
+
+def plant_ranges(plant) -> PlantRanges:
+    """The :class:`PlantRanges` of a named plant (:data:`PLANT_RANGES`) or of a plant file,
+    from its ``travel``, ``feed_range`` and ``max_acceleration`` (ValueError naming the file
+    when it has none: ``contour-env identify`` writes them)."""
+    if not is_plant_file(plant):
+        return PLANT_RANGES[plant_key(plant)]
+    name = os.fspath(plant)
+    p = _plant(name).params
+    missing = [
+        k
+        for k, v in (("travel", p.travel_m), ("feed_range", p.feed_range_m_s),
+                     ("max_acceleration", p.max_acceleration_m_s2))
+        if v is None
+    ]  # fmt: skip
+    if missing:
+        raise ValueError(
+            f"{name}: training on a plant file needs {', '.join(missing)} (the parts your "
+            "machine runs: half the stroke per axis in m, [low, high] feeds in m/s, the "
+            "acceleration limit in m/s²); contour-env identify writes them from the trace, or "
+            "add them by hand (docs/FILES.md)"
+        )
+    travel = float(np.min(p.travel_m))
+    a = p.max_acceleration_m_s2
+    return PlantRanges(
+        size_m=(FILE_SIZE_FRACTIONS[0] * travel, FILE_SIZE_FRACTIONS[1] * travel),
+        feed_m_s=tuple(p.feed_range_m_s),
+        max_accel_m_s2=a,
+        max_jerk_m_s3=20.0 * a,
+        max_centripetal_m_s2=0.5 * a,
+        blend_tolerance_m=FILE_BLEND_TOLERANCE_M,
+        travel_m=travel,
+        max_path_time_s=4.0 if p.servo_period_s >= 5e-4 else 3.0,
+    )
 
 
 @cache
@@ -550,7 +600,7 @@ def generate_path(family: str, plant: str, seed: int, *, plant_variation: float 
         raise ValueError(f"seed: expected an integer >= 0, got {seed!r}")
     if not (isinstance(plant_variation, (int, float)) and 0.0 <= plant_variation < 1.0):
         raise ValueError(f"plant_variation: must be in [0, 1), got {plant_variation!r}")
-    ranges = PLANT_RANGES[key]
+    ranges = plant_ranges(key)
     plant_obj = _plant(key)
     rng = np.random.default_rng(int(seed))
     draw = _Draw(rng, ranges, plant_obj.n_axes)

@@ -34,7 +34,7 @@ from contour_env.paths import circle, spline
 from contour_env.plants import Plant
 from contour_env.plants.randomize import randomized
 
-from .families import PLANT_RANGES, VALIDATION_SEED_BASE, generate_path, plant_key
+from .families import VALIDATION_SEED_BASE, generate_path, plant_ranges
 from .heldout import refuse_heldout
 
 DEFAULT_RANDOM_PATH_FEED_M_S = 0.02
@@ -60,7 +60,7 @@ class TaskSampler:
         elif config.gcode:
             self.random_feed = build_setup(plant=self.plant_name, path=config.gcode[0]).feedrate_m_s
         else:
-            self.random_feed = float(np.mean(PLANT_RANGES[plant_key(self.plant_name)].feed_m_s))
+            self.random_feed = float(np.mean(plant_ranges(self.plant_name).feed_m_s))
 
     @property
     def fixed(self) -> bool:

@@ -56,6 +56,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from contour_env import ENV_ID
 from contour_env.evaluation import evaluate
 from contour_env.io import atomic_save, atomic_write_json, check_output_dir
+from contour_env.plants.from_file import is_plant_file
 
 from ..registry import make_controller
 from ..residual import MODEL_FORMAT, ResidualAgent
@@ -139,7 +140,14 @@ def _metadata(cfg: TrainConfig, venv: ResidualTrainVecEnv, timesteps: int) -> di
     return {
         "format": MODEL_FORMAT,
         "algo": cfg.algo,
-        "plant": cfg.plant_name,
+        # the env's plant name (a plant file's "name", e.g. "identified"); the file it came
+        # from in "plant_file"
+        "plant": g.core.setup.plant.name,
+        **(
+            {"plant_file": os.path.basename(cfg.plant_name)}
+            if is_plant_file(cfg.plant_name)
+            else {}
+        ),
         "n_axes": int(g.n_axes),
         "obs_dim": int(g.single_observation_space.shape[0]),
         "base": cfg.base,
@@ -399,7 +407,9 @@ def _resume_envelope(raw, ckpt: Path) -> None:
     meta_path = ckpt / "agent.json"
     if not meta_path.is_file():
         return
-    meta = json.loads(meta_path.read_text())
+    from ..model_files import read_agent_json
+
+    meta = read_agent_json(meta_path)
     if meta.get("envelope"):
         raw.envelope = Envelope.from_dict(meta["envelope"], int(meta["n_axes"]))
 

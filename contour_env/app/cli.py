@@ -161,6 +161,10 @@ def cmd_compare(args) -> int:
                 )
 
     metrics = tuple(m.strip() for m in (args.metrics or "").split(",") if m.strip())
+    if args.randomize is not None:
+        from agents.compare import check_randomizable
+
+        check_randomizable(**kw)  # before any run: the five-axis plant takes no variations
     _print_program_summary(kw)
     result = compare(names, seed=args.seed, progress=show, model=args.model, metrics=metrics, **kw)
     robust = None

@@ -91,6 +91,8 @@ def config_from_args(args):
     bad = [v for v in variety if v not in PATH_VARIETY]
     if bad:
         raise ValueError(f"--paths: unknown {bad}; allowed: {', '.join(PATH_VARIETY)}")
+    if args.plant and not cases and not gcode and not variety:
+        variety = ("families",)  # --plant alone: the plant's training path families
     if not cases and not gcode and not (args.plant and variety):
         raise ValueError(
             "--case/--cases: give at least one training case (or --plant with --gcode, or "

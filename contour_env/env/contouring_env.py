@@ -108,6 +108,7 @@ class ContouringEnv(gym.Env):
       see Rewards.
     - truncated: the path and the settle time are done (k = n_steps − 1).
     - after either, ``step`` raises ``gymnasium.error.ResetNeeded`` until ``reset`` is called
+      (and so does a ``step`` before the first ``reset``)
       (also on the unwrapped env: an ended episode neither advances time nor pays rewards).
 
     ## Info (every step, physical units)
@@ -182,6 +183,7 @@ class ContouringEnv(gym.Env):
         self.observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,), dtype=np.float32)
         self._action = np.zeros((1, n))
         self._history: list[tuple] = []
+        self._was_reset = False  # step before the first reset: ResetNeeded
 
     # properties users script against
     @property
@@ -210,12 +212,17 @@ class ContouringEnv(gym.Env):
         super().reset(seed=seed)
         noise_seed = seed if seed is not None else int(self.np_random.integers(0, 2**63))
         self.core.reset_env(0, int(noise_seed))
+        self._was_reset = True
         self._history = [] if self.render_mode else self._history
         if self.render_mode:
             self._record()
         return self.core.obs[0].copy(), self.core.info(0)
 
     def step(self, action):
+        if not self._was_reset:
+            raise ResetNeeded(
+                "step: call reset() before the first step (the episode has not begun)"
+            )
         if self.core.terminated[0] or self.core.truncated[0]:
             reason = self.core.info(0)["termination_reason"] or "truncated: the path is done"
             raise ResetNeeded(

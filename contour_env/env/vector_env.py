@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
@@ -46,6 +47,7 @@ class ContouringVectorEnv(VectorEnv):
         # envs whose episode ended at the last step (reset at this one); None: no env
         self._needs_reset = None
         self._rng = np.random.default_rng()
+        self._was_reset = False  # step before the first reset: ResetNeeded
 
     @property
     def setup(self):
@@ -68,9 +70,14 @@ class ContouringVectorEnv(VectorEnv):
         self.core.renew_outputs()
         self.core.reset_envs(np.arange(self.num_envs), [base + b for b in range(self.num_envs)])
         self._needs_reset = None
+        self._was_reset = True
         return self.core.obs, self.core.batch_info()
 
     def step(self, actions):
+        if not self._was_reset:
+            raise ResetNeeded(
+                "step: call reset() before the first step (the episodes have not begun)"
+            )
         core = self.core
         a = np.asarray(actions)
         if a.dtype.kind not in "fiu":

@@ -13,6 +13,10 @@ REGRESSION_SMOOTH_S = 0.02  # smoothing of the regression's derivatives (and com
 DETECT_SMOOTH_S = 0.02  # smoothing of the residual force searched for periodic forces, s
 PEAK_RATIO = 6.0  # a periodic force is a candidate where its share is 6× the median's
 MAX_SCAN_SAMPLES = 8_000
+# at most this many frequencies (or wavenumbers) per scan: the grid's spacing (a quarter of the
+# trace's resolution) is coarsened beyond it, so that a long trace or a long stroke costs
+# bounded memory and time (8e3 samples × 2e4 points: ~1 s, the arrays 0.5 MB)
+MAX_SCAN_POINTS = 20_000
 PEAK_CANDIDATES = 6
 
 
@@ -113,6 +117,13 @@ def _peaks(share: np.ndarray, k: int) -> list:
     return [int(i) for i in idx[np.argsort(share[idx])[::-1]][:k]]
 
 
+def _grid(lo: float, hi: float, step: float) -> np.ndarray:
+    """``np.arange(lo, hi, step)``, or MAX_SCAN_POINTS evenly spaced points when that is more."""
+    if (hi - lo) / step > MAX_SCAN_POINTS:
+        return np.linspace(lo, hi, MAX_SCAN_POINTS, endpoint=False)
+    return np.arange(lo, hi, step)
+
+
 def _periodic_candidates(u, y, T, lo, hi, d, theta5, n_total) -> dict:
     """Candidates for a periodic force the model leaves out, from the regression's residual
     force on the quasi-steady samples (moving, small acceleration): a disturbance in time
@@ -140,7 +151,7 @@ def _periodic_candidates(u, y, T, lo, hi, d, theta5, n_total) -> dict:
     f_hi = min(50.0, 0.05 / T)
     f_lo = 3.0 / dur
     if f_hi > 2 * f_lo:
-        f = np.arange(f_lo, f_hi, 1.0 / (4.0 * dur))
+        f = _grid(f_lo, f_hi, 1.0 / (4.0 * dur))
         share, cs, cc = _sinusoid_scan(t, r, 2 * np.pi * f)
         found = [(float(cs[k]), float(cc[k]), float(f[k])) for k in _peaks(share, PEAK_CANDIDATES)]
         if found:
@@ -149,7 +160,7 @@ def _periodic_candidates(u, y, T, lo, hi, d, theta5, n_total) -> dict:
     span = float(np.ptp(x))
     if span > 4e-3:
         k_lo, k_hi = 2 * np.pi / (0.5 * span), 2 * np.pi / 1e-3
-        kk = np.arange(k_lo, k_hi, 2 * np.pi / (4.0 * span))
+        kk = _grid(k_lo, k_hi, 2 * np.pi / (4.0 * span))
         share, cs, cc = _sinusoid_scan(x, r, kk)
         found = [(float(cs[k]), float(cc[k]), float(kk[k])) for k in _peaks(share, PEAK_CANDIDATES)]
         if found:

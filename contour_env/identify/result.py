@@ -122,8 +122,9 @@ def plant_mapping(ident: Identification, *, name: str = "identified", input_kind
         "ripple_period": [r["period_m"] if r else 0.03 for r in rip],
         "force_limit": [f.force_limit_N for f in fits],
         "encoder_resolution": [f.encoder_resolution_m for f in fits],
-        "servo_period": T,
+        "servo_period": float(f"{T:.12g}"),
         "input_kind": input_kind,
+        **workspace_of(ident.trace),
         "notes": (
             f"identified by contour-env identify from {os.path.basename(ident.trace.source)} "
             f"({ident.trace.n_rows} samples); delays {[f.delay_periods for f in fits]} servo "
@@ -133,10 +134,45 @@ def plant_mapping(ident: Identification, *, name: str = "identified", input_kind
     }
 
 
+# the parts a machine runs lie well inside what its excitation reached: the training feeds
+# are 1/100 … 1/10 of the trace's top speed and the parts' acceleration 1/10 of its 99th
+# percentile (on the friction table's excitation: 5.8–58 mm/s and 0.8 m/s², against the
+# named cases' 5–40 mm/s and 0.5 m/s²); edit them in plant.json to match your parts
+FEED_FRACTIONS = (0.01, 0.1)
+ACCEL_FRACTION = 0.1
+SMOOTH_S = 0.02  # the speed and acceleration are read over 20 ms (the encoder's noise is not)
+
+
+def workspace_of(trace: Trace) -> dict:
+    """``travel`` (half the stroke per axis, m), ``feed_range`` (m/s) and ``max_acceleration``
+    (m/s²) of the parts a machine with this trace runs, the keys of a plant file that
+    ``contour-env train --plant`` draws its training parts within (see FEED_FRACTIONS)."""
+    import numpy as np
+
+    T = trace.servo_period_s
+    y = trace.position
+    travel = [max(float(np.ptp(y[:, j])) / 2.0, 1e-4) for j in range(y.shape[1])]
+    k = max(1, int(round(SMOOTH_S / T)))
+    box = np.ones(k) / k
+    v = np.column_stack(
+        [np.convolve(np.diff(y[:, j]) / T, box, "valid") for j in range(y.shape[1])]
+    )
+    speed = np.linalg.norm(v, axis=1)
+    top = float(np.max(speed)) if speed.size else 0.0
+    acc = np.abs(np.diff(v, axis=0)) / T
+    a99 = float(np.percentile(acc, 99)) if acc.size else 0.0
+    top = min(max(top, 1e-3), 10.0)
+    return {
+        "travel": [min(t, 10.0) for t in travel],
+        "feed_range": [FEED_FRACTIONS[0] * top, FEED_FRACTIONS[1] * top],
+        "max_acceleration": min(max(ACCEL_FRACTION * a99, 1e-3), 1000.0),
+    }
+
+
 def write_plant(path, ident: Identification, **kw):
     """Write :func:`plant_mapping` as JSON, atomically; it is checked by loading it first."""
     from ..io import atomic_write_json
-    from ..plants.params import params_from_mapping
+    from ..plants.file_schema import params_from_mapping
 
     mapping = plant_mapping(ident, **kw)
     params_from_mapping(mapping)

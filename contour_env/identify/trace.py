@@ -11,9 +11,37 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..plants.params import PARAM_RANGES
+from ..schema import Key, check_column
 
 DEFAULT_HOLDOUT = 0.25
 MIN_ROWS = 1000
+# the plausible ranges of a trace's columns (docs/FILES.md): a force command within the
+# largest force limit a plant may have, an encoder within ±100 m, no axis faster than 10 m/s
+# between two samples. A trace in µm or mm, a command scaled by mistake or a glitch (1e308)
+# is refused here, naming the line, before a fit on it could run out of memory or time.
+TRACE_KEYS = (
+    Key("time_s", "number", "s", doc="sample time, one servo period apart, increasing"),
+    Key(
+        "command_<axis>",
+        "number",
+        "N",
+        -PARAM_RANGES["force_limit_N"][1],
+        PARAM_RANGES["force_limit_N"][1],
+        required=True,
+        doc="force (current) command, N; in A with --force-constant N/A (checked in N)",
+    ),
+    Key("position_<axis>", "number", "m", -100.0, 100.0, required=True, doc="encoder reading"),
+    Key(
+        "speed <axis>",
+        "number",
+        "m/s",
+        -10.0,
+        10.0,
+        doc="the position's step over one servo period (derived, not a column)",
+    ),
+)
+_COMMAND, _POSITION, _SPEED = TRACE_KEYS[1:]
+UNIT_HINT = "positions are in metres: a trace in µm or mm? divide the column by 1e6 or 1e3"
 SAMPLE_TOLERANCE = 0.1  # a row's time step may differ from the servo period by 10 %
 
 
@@ -215,6 +243,7 @@ def _trace_of_rows(name, rows, ax, cmap, force_constant, servo_period_s) -> Trac
     fk = _per_axis("--force-constant", force_constant, A)
     if fk is not None:
         command *= fk
+    _check_ranges(name, lines, t, command, position, ax, cmap)
     dt = np.diff(t)
     bad = np.flatnonzero(dt <= 0)
     if bad.size:
@@ -252,6 +281,26 @@ def _trace_of_rows(name, rows, ax, cmap, force_constant, servo_period_s) -> Trac
         source=name,
         columns={a: (_col(cmap, f"command_{a}"), _col(cmap, f"position_{a}")) for a in ax},
     )
+
+
+def _check_ranges(name, lines, t, command, position, ax, cmap) -> None:
+    """Every command, position and speed in its plausible range (:data:`TRACE_KEYS`)."""
+    for j, a in enumerate(ax):
+        ccol, pcol = _col(cmap, f"command_{a}"), _col(cmap, f"position_{a}")
+        check_column(
+            name, ccol, command[:, j], lines, _COMMAND,
+            hint="commands are forces in N (give --force-constant N/A for a current in A)",
+        )  # fmt: skip
+        check_column(name, pcol, position[:, j], lines, _POSITION, hint=UNIT_HINT)
+    dt = np.diff(t)
+    if dt.size == 0 or np.any(dt <= 0):
+        return  # the time column's own check names the line
+    for j, a in enumerate(ax):
+        speed = np.diff(position[:, j]) / dt
+        check_column(
+            name, _col(cmap, f"position_{a}"), speed, lines[1:], _SPEED,
+            hint=UNIT_HINT + ", or an encoder glitch", what="the speed from the previous row",
+        )  # fmt: skip
 
 
 def _example() -> str:

@@ -1,9 +1,10 @@
 """Feed-drive plants: parameters, named catalogue, exact discretisation and compiled step."""
 
 from .catalog import Effects, nominal_params, plant_names
+from .file_schema import params_from_mapping
 from .five_axis import FiveAxisParams, FiveAxisPlant, five_axis_params
 from .model import PackedPlant, Plant, PlantState, pack_params, quantize
-from .params import PlantParams, params_from_mapping
+from .params import PlantParams
 
 # the five-axis family (its own plant class and kernel, contour_env.plants.five_axis): the
 # plant names an env takes and the named parameter set each stands for

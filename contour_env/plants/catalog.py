@@ -7,13 +7,15 @@ With ``ideal=True`` the true plant equals the paper's model (textbook checks).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .file_schema import params_from_mapping
 from .from_file import is_plant_file, load_plant_file
-from .params import PER_AXIS_FIELDS, PlantParams, params_from_mapping
+from .params import PER_AXIS_FIELDS, PlantParams
 
 # HSM2 x axis: rotary servo + leadscrew. Lee 2012 gives J, B in rotary units only; the lead
 # ℓ = 4.4 mm/rad (≈ 27.6 mm/rev) reproduces the RMS torques of its Table 3 on cases I–III
@@ -278,7 +280,11 @@ def resolve_plant(plant, *, ideal: bool = False, structural_mode: bool = False, 
     applied to the paper's model (a payload is part of the machine, not an unmodelled effect).
     """
     if is_plant_file(plant):  # a JSON file of parameters (contour_env.plants.from_file)
-        plant = load_plant_file(plant)
+        if true_scale:
+            raise ValueError("true_scale: only for a named plant (custom parameters are the truth)")
+        name = os.fspath(plant)
+        p = params_from_mapping(load_plant_file(name), name)
+        return p, p, {"ideal": True, "custom": True}
     if true_scale and not isinstance(plant, str):
         raise ValueError("true_scale: only for a named plant (custom parameters are the truth)")
     if isinstance(plant, PlantParams):

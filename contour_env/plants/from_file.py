@@ -2,7 +2,7 @@
 ``--plant plant.json`` on the command line, e.g. the file ``contour-env identify`` writes.
 
 The file holds one JSON object, the same mapping of parameters a custom plant takes
-(:func:`contour_env.plants.params.params_from_mapping`: ``mass``, ``viscous``, ``coulomb``,
+(:func:`contour_env.plants.file_schema.params_from_mapping`: ``mass``, ``viscous``, ``coulomb``,
 ``static``, ``force_limit``, ``servo_period``, ...). A plant argument is read as a file when
 it is an ``os.PathLike`` or a string ending in ``.json`` (any case); everything else is a
 plant name as before.
@@ -10,7 +10,6 @@ plant name as before.
 
 from __future__ import annotations
 
-import json
 import os
 
 __all__ = ["is_plant_file", "load_plant_file"]
@@ -24,20 +23,14 @@ def is_plant_file(plant) -> bool:
 
 
 def load_plant_file(path) -> dict:
-    """The mapping of parameters in the JSON file ``path``; ValueError with one line naming
-    the file when it is missing, unreadable, not JSON or not a JSON object."""
+    """The mapping of parameters in the JSON file ``path``, checked key by key against
+    :data:`contour_env.plants.file_schema.PLANT_KEYS`: a ``FileFormatError`` (ValueError)
+    with one line naming the file (and the key, its value and the allowed range) when it is
+    missing, unreadable, not JSON, not a JSON object or holds a value out of range."""
+    from ..schema import read_json
+    from .file_schema import check_plant_mapping
+
     name = os.fspath(path)
-    try:
-        with open(name, encoding="utf-8") as fh:
-            data = json.load(fh)
-    except FileNotFoundError:
-        raise ValueError(f"plant: no such file: {name}") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"plant: {name} is not valid JSON ({exc})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"plant: cannot read {name} ({getattr(exc, 'strerror', exc)})") from None
-    if not isinstance(data, dict):
-        raise ValueError(
-            f"plant: {name} must hold a JSON object of plant parameters, got {type(data).__name__}"
-        )
+    data = read_json(name, "plant file")
+    check_plant_mapping(data, name)
     return data

@@ -99,6 +99,13 @@ class PlantParams:
     controller_gains : dict, optional
         Controller defaults tuned for this plant (``contour-env tune``;
         :mod:`contour_env.plants.gains`), e.g. ``{"pd": {"bandwidth_rad_s": 80.0}}``.
+    travel_m : (n,) float > 0, optional; feed_range_m_s : (lo, hi) m/s, 0 < lo < hi, optional;
+    max_acceleration_m_s2 : float > 0, optional
+        The parts the machine runs (``contour-env identify`` writes them into a plant file from
+        the trace): half the stroke per axis, the programmed feeds, the feed profile's
+        acceleration limit. Only training on a plant file reads them
+        (:func:`agents.rl.families.plant_ranges`); None on the named plants, whose training
+        ranges are tabulated.
 
     Custom parameters (a mapping, the env's ``plant_params``) must lie in the physically
     meaningful ranges of :data:`PARAM_RANGES` (mass 1e-6..1e6 kg, force limit 1e-6..1e7 N,
@@ -128,6 +135,9 @@ class PlantParams:
     friction_substeps: int = 20
     notes: str = ""
     controller_gains: dict = field(default=None)
+    travel_m: np.ndarray | None = None
+    feed_range_m_s: tuple | None = None
+    max_acceleration_m_s2: float | None = None
 
     def __post_init__(self):
         if isinstance(self.axis_names, str) or not isinstance(self.axis_names, (tuple, list)):
@@ -196,9 +206,27 @@ class PlantParams:
             )
         s(self, "computation_delay", bool(self.computation_delay))
         s(self, "controller_gains", check_controller_gains(self.controller_gains))
+        self._check_workspace(n)
         s(self, "friction_substeps", int(self.friction_substeps))
         for arr_name in spec:
             getattr(self, arr_name).setflags(write=False)
+
+    def _check_workspace(self, n: int) -> None:
+        s = object.__setattr__
+        if self.travel_m is not None:
+            s(self, "travel_m", _axis_array("travel_m", self.travel_m, n, positive=True))
+            self.travel_m.setflags(write=False)
+        if self.feed_range_m_s is not None:
+            fr = _axis_array("feed_range_m_s", self.feed_range_m_s, 2, positive=True, member="end")
+            if not fr[0] < fr[1]:
+                raise ValueError(f"feed_range_m_s: [low, high] with low < high, got {fr.tolist()}")
+            s(self, "feed_range_m_s", (float(fr[0]), float(fr[1])))
+        v = self.max_acceleration_m_s2
+        if v is not None:
+            ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+            if not (ok and math.isfinite(v) and v > 0):
+                raise ValueError(f"max_acceleration_m_s2: must be a number > 0, got {v!r}")
+            s(self, "max_acceleration_m_s2", float(v))
 
     @property
     def n_axes(self) -> int:
@@ -310,76 +338,12 @@ MAPPING_KEYS = {
     "structural_stiffness": "structural_stiffness_N_m",
     "structural_damping": "structural_damping_Ns_m",
 }
-
-
-def params_from_mapping(mapping: Mapping) -> PlantParams:
-    """Build custom plant parameters from a plain mapping.
-
-    Keys (per-axis values are lists, scalars apply to every axis), SI units:
-    ``axes`` (list of names, default ``["x", "y"]``), ``mass`` (kg, required), ``viscous``
-    (N s/m), ``coulomb`` / ``static`` (N), ``stribeck_velocity`` (m/s), ``ripple_amplitude``
-    (N), ``ripple_period`` (m), ``disturbance_amplitude`` (N), ``disturbance_frequency`` (Hz),
-    ``force_limit`` (N, required), ``encoder_resolution`` (m), ``servo_period`` (s, required),
-    ``current_loop_time_constant`` (s), ``computation_delay`` (bool), ``structural_stiffness``
-    (N/m), ``structural_damping`` (N s/m), ``load_mass_fraction``, ``input_kind``,
-    ``friction_substeps``, ``name``, ``notes``, ``controller_gains`` (tuned controller defaults,
-    :mod:`contour_env.plants.gains`). The full field names of :class:`PlantParams` work too.
-    Every value must lie in its range of :data:`PARAM_RANGES` (ValueError naming the
-    parameter and the range otherwise).
-    """
-    if not isinstance(mapping, Mapping):
-        raise ValueError(
-            f"plant: a custom plant is a mapping of parameters, got {type(mapping).__name__}"
-        )
-    known_fields = {f.name for f in fields(PlantParams)}
-    kw: dict = {}
-    for key, value in mapping.items():
-        if key == "axes":
-            if isinstance(value, str) or not isinstance(value, (list, tuple)):
-                raise ValueError(
-                    f"axes: a list of 2 or 3 axis names such as ['x', 'y'], got {value!r}"
-                )
-            kw["axis_names"] = tuple(value)
-        elif key in MAPPING_KEYS:
-            kw[MAPPING_KEYS[key]] = value
-        elif key in known_fields:
-            kw[key] = value
-        else:
-            allowed = sorted(
-                set(MAPPING_KEYS)
-                | {
-                    "axes",
-                    "computation_delay",
-                    "input_kind",
-                    "friction_substeps",
-                    "name",
-                    "load_mass_fraction",
-                    "notes",
-                    "controller_gains",
-                }
-            )
-            raise ValueError(f"plant: unknown parameter {key!r}; allowed: {', '.join(allowed)}")
-    for req in ("mass_kg", "force_limit_N", "servo_period_s"):
-        if req not in kw:
-            inv = {v: k for k, v in MAPPING_KEYS.items()}
-            raise ValueError(f"plant: custom parameters need {inv[req]!r}")
-    kw.setdefault("axis_names", ("x", "y"))
-    n = len(kw["axis_names"])
-    kw.setdefault("name", "custom")
-    for key, default in (
-        ("viscous_Ns_m", 0.0),
-        ("coulomb_N", 0.0),
-        ("static_N", None),
-        ("stribeck_velocity_m_s", 0.01),
-        ("ripple_amplitude_N", 0.0),
-        ("ripple_period_m", 0.03),
-        ("disturbance_amplitude_N", 0.0),
-        ("disturbance_frequency_hz", 0.0),
-        ("encoder_resolution_m", 0.0),
-    ):
-        if key not in kw:
-            kw[key] = kw["coulomb_N"] if key == "static_N" else np.full(n, default)
-    return check_param_ranges(PlantParams(**kw))
+# the keys describing what the machine's trace covered -> field names
+WORKSPACE_FIELDS = {
+    "travel": "travel_m",
+    "feed_range": "feed_range_m_s",
+    "max_acceleration": "max_acceleration_m_s2",
+}
 
 
 def one_params_per_env(plant_params, cls, n_envs: int) -> list:

@@ -29,8 +29,7 @@ from agents.tuning import (
     tune_plant_file,
 )
 from contour_env.circular_test import max_circle_feed_m_s, run_circular_test
-from contour_env.plants import Plant
-from contour_env.plants.params import params_from_mapping
+from contour_env.plants import Plant, params_from_mapping
 
 MILL = {
     "name": "my-mill",

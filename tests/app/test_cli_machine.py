@@ -67,6 +67,12 @@ def test_identify_writes_a_plant_the_cli_and_gym_load(good_trace, tmp_path, caps
     data = json.loads(plant.read_text())
     assert data["axes"] == ["x", "y"] and data["computation_delay"] is True
     assert data["mass"] == pytest.approx([46.2, 32.4], rel=0.05)  # the friction table's
+    # what the trace covered, for contour-env train --plant: the excitation's ±40 mm stroke
+    assert data["travel"] == pytest.approx([0.04, 0.04], rel=0.02)
+    lo, hi = data["feed_range"]
+    assert hi == pytest.approx(10 * lo) and 0.02 < hi < 0.2
+    assert 0.1 < data["max_acceleration"] < 5.0
+    assert data["servo_period"] == 0.001  # rounded to 12 digits, not 0.001000000000000112
     rep = json.loads(js.read_text())
     assert {"axes", "warnings"} <= set(rep)
     # the file is a plant for the circular test (and every --plant)
@@ -106,6 +112,15 @@ def _bad(tmp_path, rows, kind):
             r[1] = str(abs(float(r[1])))
     elif kind == "gap":
         del body[999]  # a missing sample: line 1001 is two periods after line 1000
+    elif kind == "glitch":
+        body[1499][2] = "1e308"  # line 1501, position_x: one glitch, finite
+    elif kind in ("micrometres", "millimetres"):
+        f = 1e6 if kind == "micrometres" else 1e3
+        for r in body:
+            r[2], r[4] = repr(float(r[2]) * f), repr(float(r[4]) * f)
+    elif kind == "command1e30":
+        for r in body:
+            r[1] = repr(float(r[1]) * 1e30)
     return _write(tmp_path / "t.csv", h, body)
 
 
@@ -118,8 +133,14 @@ def _bad(tmp_path, rows, kind):
         ("short", "400 rows, too short to identify"),
         ("reverse", "column 'command_x': the command never reverses"),
         ("gap", "line 1001: time step"),
+        # issue 49, items 3, 9, 10: ranges checked before any fit, naming the line and value
+        ("glitch", "line 1501, column 'position_x': 1e+308 m is outside [-100, 100] m (the only "
+         "row outside: a glitch? remove or repair that row)"),
+        ("micrometres", "column 'position_x': the speed from the previous row"),
+        ("millimetres", "m/s is outside [-10, 10] m/s"),
+        ("command1e30", "column 'command_x': "),
     ],
-)
+)  # fmt: skip
 def test_bad_trace_one_line_error(tmp_path, rows, capsys, kind, expected):
     trace = _bad(tmp_path, rows, kind)
     code = main(["identify", "--trace", str(trace), "--out", str(tmp_path / "p.json")])
@@ -128,6 +149,21 @@ def test_bad_trace_one_line_error(tmp_path, rows, capsys, kind, expected):
     assert len(err.splitlines()) == 1 and "Traceback" not in err
     assert expected in err and "t.csv" in err
     assert not (tmp_path / "p.json").exists()
+    if kind in ("micrometres", "millimetres"):
+        assert "positions are in metres: a trace in µm or mm?" in err
+    if kind == "command1e30":
+        assert "N is outside [-1e+07, 1e+07] N" in err and "--force-constant" in err
+
+
+def test_a_micrometre_trace_is_refused_before_the_scan_and_the_scan_is_bounded():
+    from contour_env.identify.regression import MAX_SCAN_POINTS, _grid
+
+    # the ripple scan of a 2e5 "m" stroke asked for 8e8 wavenumbers (2.8 GB and growing)
+    span = 2e5
+    k = _grid(2 * np.pi / (0.5 * span), 2 * np.pi / 1e-3, 2 * np.pi / (4.0 * span))
+    assert len(k) == MAX_SCAN_POINTS
+    small = _grid(1.0, 2.0, 0.25)
+    np.testing.assert_array_equal(small, [1.0, 1.25, 1.5, 1.75])
 
 
 def test_columns_map_other_names(tmp_path, rows, capsys):

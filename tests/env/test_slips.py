@@ -72,7 +72,10 @@ def test_randomised_variants_of_the_case_plant_still_run():
 def test_extreme_custom_parameters_name_the_parameter_and_range(change, name):
     base = dict(mass=10.0, force_limit=100.0, servo_period=1e-3)
     lo, hi = PARAM_RANGES[name]
-    with pytest.raises(ValueError, match=re.escape(f"{name} must be in [{lo:g}, {hi:g}]")):
+    key = next(iter(change))
+    with pytest.raises(
+        ValueError, match=re.escape(f"plant: {key}: must be a number in [{lo:g}, {hi:g}]")
+    ):
         params_from_mapping({**base, **change})
     # a PlantParams made directly, given as plant_params, is checked by the env
     hsm2 = ContouringEnv(case="hsm2-circle-II").plant.params

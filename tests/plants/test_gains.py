@@ -8,9 +8,8 @@ import json
 
 import pytest
 
-from contour_env.plants import Plant
+from contour_env.plants import Plant, params_from_mapping
 from contour_env.plants.gains import TUNABLE_GAINS, tuned_gain
-from contour_env.plants.params import params_from_mapping
 
 BASE = {"mass": [300.0, 200.0], "force_limit": 3000.0, "servo_period": 0.001}
 
@@ -41,7 +40,7 @@ def test_gains_from_a_plant_file(tmp_path):
 @pytest.mark.parametrize(
     ("gains", "message"),
     [
-        ([80], "controller_gains: a mapping of controller"),
+        ([80], "plant: controller_gains: must be a JSON object \\(or null\\), got \\[80\\]"),
         ({"pid": {}}, "controller_gains: unknown controller 'pid'; allowed: pd, ccc"),
         ({"pd": 80}, r"controller_gains.pd: a mapping of gain → value \(bandwidth_rad_s\), got"),
         ({"pd": {"w": 80}}, "controller_gains.pd: unknown gain 'w'; allowed: bandwidth_rad_s"),

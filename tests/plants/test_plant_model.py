@@ -232,12 +232,12 @@ def test_realistic_and_ideal_effects():
 @pytest.mark.parametrize(
     "change, match",
     [
-        ({"mass": [0.0, 1.0]}, "mass_kg"),
-        ({"servo_period": 0.0}, "servo_period_s"),
-        ({"viscous": -1.0}, "viscous_Ns_m"),
+        ({"mass": [0.0, 1.0]}, "plant: mass: "),
+        ({"servo_period": 0.0}, "plant: servo_period: "),
+        ({"viscous": -1.0}, "plant: viscous: "),
         ({"coulomb": 5.0, "static": 1.0}, "static_N"),
-        ({"mass": [1.0, 2.0, 3.0]}, "mass_kg"),
-        ({"colour": 1}, "unknown parameter 'colour'"),
+        ({"mass": [1.0, 2.0, 3.0]}, "plant: mass: "),
+        ({"colour": 1}, 'plant: unknown key "colour"'),
     ],
 )
 def test_custom_parameter_errors_name_the_parameter(change, match):
