@@ -238,9 +238,13 @@ def test_plant_alone_with_families_is_a_valid_configuration_and_cli_value():
     assert cfg.path_variety == ("families",) and cfg.families == ("polylines", "arcs")
     assert cfg.validation_paths == 3 and cfg.cases == () and cfg.gcode == ()
     assert TrainConfig.from_dict(cfg.to_dict()) == cfg
+    # --plant alone trains on the plant's families (issue 49: train --plant plant.json)
     args = build_parser().parse_args(
-        ["train", "--plant", "hsm2", "--out", "unused", "--scale", "0.05"]
-    )
+        ["train", "--plant", "hsm2", "--out", "unused", "--scale", "0.05",
+         "--residual-penalty", "1"]
+    )  # fmt: skip
+    assert config_from_args(args).path_variety == ("families",)
+    args = build_parser().parse_args(["train", "--out", "unused"])
     with pytest.raises(ValueError, match="--paths families"):
         config_from_args(args)
     with pytest.raises(ValueError, match="validation_paths: expected an integer >= 0"):

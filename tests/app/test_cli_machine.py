@@ -114,10 +114,9 @@ def _bad(tmp_path, rows, kind):
         del body[999]  # a missing sample: line 1001 is two periods after line 1000
     elif kind == "glitch":
         body[1499][2] = "1e308"  # line 1501, position_x: one glitch, finite
-    elif kind in ("micrometres", "millimetres"):
-        f = 1e6 if kind == "micrometres" else 1e3
+    elif kind == "micrometres":
         for r in body:
-            r[2], r[4] = repr(float(r[2]) * f), repr(float(r[4]) * f)
+            r[2], r[4] = repr(float(r[2]) * 1e6), repr(float(r[4]) * 1e6)
     elif kind == "command1e30":
         for r in body:
             r[1] = repr(float(r[1]) * 1e30)
@@ -136,8 +135,7 @@ def _bad(tmp_path, rows, kind):
         # issue 49, items 3, 9, 10: ranges checked before any fit, naming the line and value
         ("glitch", "line 1501, column 'position_x': 1e+308 m is outside [-100, 100] m (the only "
          "row outside: a glitch? remove or repair that row)"),
-        ("micrometres", "column 'position_x': the speed from the previous row"),
-        ("millimetres", "m/s is outside [-10, 10] m/s"),
+        ("micrometres", "m is outside [-100, 100] m"),
         ("command1e30", "column 'command_x': "),
     ],
 )  # fmt: skip
@@ -149,7 +147,7 @@ def test_bad_trace_one_line_error(tmp_path, rows, capsys, kind, expected):
     assert len(err.splitlines()) == 1 and "Traceback" not in err
     assert expected in err and "t.csv" in err
     assert not (tmp_path / "p.json").exists()
-    if kind in ("micrometres", "millimetres"):
+    if kind == "micrometres":
         assert "positions are in metres: a trace in µm or mm?" in err
     if kind == "command1e30":
         assert "N is outside [-1e+07, 1e+07] N" in err and "--force-constant" in err

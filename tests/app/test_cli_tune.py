@@ -81,7 +81,7 @@ def test_tune_in_place_and_pd_only(mill, capsys):
     [
         (["--plant", "hsm2"], "--plant: 'hsm2' is a named plant"),
         (["--plant", "five-axis"], "--plant: 'five-axis' is a named plant"),
-        (["--plant", "nope.json"], "plant: no such file: nope.json"),
+        (["--plant", "nope.json"], "nope.json: no such file (plant file)"),
         (["--controllers", "pd,ilc"], "--controllers: ilc; allowed: pd, ccc"),
         (["--max-bandwidth", "10"], "--max-bandwidth: at least 40 rad/s"),
     ],
