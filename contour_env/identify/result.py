@@ -81,6 +81,8 @@ class Identification:
     axes: list
     settings: dict
     warnings: list = field(default_factory=list)
+    # {axis: reason} of the axes fitted poorly (contour_env.identify.poor_fits)
+    poor_fit: dict = field(default_factory=dict)
 
     def report(self) -> dict:
         return {
@@ -90,6 +92,7 @@ class Identification:
             "settings": self.settings,
             "axes": [a.report() for a in self.axes],
             "warnings": list(self.warnings),
+            "poor_fit": dict(self.poor_fit),
             "plant": plant_mapping(self),
         }
 
@@ -130,6 +133,7 @@ def plant_mapping(ident: Identification, *, name: str = "identified", input_kind
             f"({ident.trace.n_rows} samples); delays {[f.delay_periods for f in fits]} servo "
             "periods; periodic forces (disturbance, ripple) with their amplitude and frequency "
             "only, at the model's fixed phase; no structural mode (not identified)"
+            + "".join(f"; POOR FIT, {why}" for why in ident.poor_fit.values())
         ),
     }
 
