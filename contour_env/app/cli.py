@@ -412,6 +412,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .cli_machine import add_machine_commands  # identify, excite: your machine
 
     add_machine_commands(sub)
+    from .cli_export import add_export_command  # the agent's law as C99 and ONNX
+
+    add_export_command(sub)
     from .cli_tune import add_tune_command  # default gains for your plant file
 
     add_tune_command(sub)
