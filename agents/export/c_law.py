@@ -88,10 +88,46 @@ def _array(name: str, values, per_line: int = 4) -> str:
     return f"static const double {name}[{len(vals)}] = {{\n" + "\n".join(lines) + "\n};\n"
 
 
-def _law_settings(model_dir, config=None) -> dict:
-    """Everything the C law needs from a model directory, as plain numbers."""
-    from contour_env.env.core import EnvConfig
+def plant_of(model_dir, meta: dict, plant=None):
+    """The plant the agent's law runs on, as ``gym.make(plant=...)`` takes it: its named plant,
+    or the plant file it was trained on (``plant``, else the run's config.json's path when that
+    file is still there); ValueError naming what to give otherwise."""
+    from contour_env.plants.catalog import PLANTS
+    from contour_env.plants.from_file import is_plant_file
+
+    if plant is None and meta["plant"] in PLANTS:
+        plant = meta["plant"]
+    if plant is None:
+        cfg = Path(model_dir) / "config.json"
+        given = json.loads(cfg.read_text()).get("plant") if cfg.is_file() else None
+        if given and is_plant_file(given) and Path(given).is_file():
+            plant = given
+    if plant is None:
+        raise ValueError(
+            f"export: the agent was trained on a plant file ({meta.get('plant_file', '?')}, plant "
+            f"{meta['plant']!r}) that is not where its config.json says; give it with --plant"
+        )
+    return plant
+
+
+def _nominal_of(model_dir, meta: dict, plant=None):
+    """The nominal plant parameters the agent's law uses (servo period, path weights)."""
     from contour_env.plants.catalog import resolve_plant
+
+    _, nominal, _ = resolve_plant(plant_of(model_dir, meta, plant))
+    if nominal.name != meta["plant"]:
+        raise ValueError(
+            f"export: the plant given is {nominal.name!r}; the agent was trained for "
+            f"{meta['plant']!r}"
+        )
+    return nominal
+
+
+def _law_settings(model_dir, config=None, plant=None) -> dict:
+    """Everything the C law needs from a model directory, as plain numbers (``plant``: the
+    plant file of an agent trained on one, when its run's config.json no longer points at
+    it)."""
+    from contour_env.env.core import EnvConfig
 
     from ..residual import REST_FADE_FEED_FRACTION, ResidualAgent
     from ..residual_law import path_weights
@@ -100,7 +136,7 @@ def _law_settings(model_dir, config=None) -> dict:
     meta = agent.meta
     cfg = EnvConfig() if config is None else config
     n = int(meta["n_axes"])
-    _, nominal, _ = resolve_plant(meta["plant"])
+    nominal = _nominal_of(model_dir, meta, plant)
     if getattr(nominal, "family", None) == "five-axis" or nominal.n_axes != n:
         raise ValueError(
             f"export: the agent's plant {meta['plant']!r} is not a {n}-axis feed-drive plant"
@@ -807,7 +843,7 @@ void residual_step(const residual_inputs *in, residual_state *st, residual_outpu
 """
 
 
-def write_c(model_dir, out_dir, *, config=None) -> dict:
+def write_c(model_dir, out_dir, *, config=None, plant=None) -> dict:
     """Write ``residual.h`` and ``residual.c`` (C99) for the trained agent in ``model_dir``
     into ``out_dir`` (created if needed); return the interface description (inputs, state and
     outputs with name, unit, shape and meaning, plus the law's settings and the files).
@@ -815,7 +851,7 @@ def write_c(model_dir, out_dir, *, config=None) -> dict:
     ``config``: the :class:`contour_env.env.core.EnvConfig` the agent was trained under
     (observation scales, preview times, obs clip); None: the defaults (what ``contour-env
     train`` uses). The observation size it implies must be the agent's ``obs_dim``."""
-    s = _law_settings(model_dir, config)
+    s = _law_settings(model_dir, config, plant)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     iface = describe_interface(s["n"], s["preview_times_s"], s["is_base"])

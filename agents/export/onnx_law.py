@@ -267,14 +267,14 @@ def reset_state(n_axes: int) -> dict:
     }  # fmt: skip
 
 
-def write_onnx(model_dir, out_dir, *, config=None) -> Path:
+def write_onnx(model_dir, out_dir, *, config=None, plant=None) -> Path:
     """Write ``residual.onnx`` (opset :data:`OPSET`) of the agent in ``model_dir``; the
     file's path. ValueError where the law cannot run on a machine (as :func:`write_c`)."""
     import warnings
 
     from .c_law import _law_settings
 
-    s = _law_settings(model_dir, config)
+    s = _law_settings(model_dir, config, plant)
     law = _module(s).eval()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

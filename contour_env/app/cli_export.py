@@ -27,24 +27,26 @@ def _deploy_check() -> None:
         ) from None
 
 
-def _bench_inputs(model_dir):
+def _bench_inputs(model_dir, plant=None):
     """The inputs of a sample in motion of a part of the agent's plant (a circle at its
     envelope's mid feed), and the axis mask, for the latency runs."""
     import gymnasium as gym
     import numpy as np
 
+    from agents.export.c_law import plant_of
     from agents.export.replay import inputs_from_core
     from agents.residual import ResidualAgent, make_base
     from contour_env import ENV_ID
     from contour_env.paths import circle
 
     agent = ResidualAgent(model_dir)
+    plant = plant_of(model_dir, agent.meta, plant)
     feed = 0.05
     env_ = agent.envelope
     if env_ is not None and env_.feed_range is not None:
         feed = float(np.mean(env_.feed_range))
     path = circle((0.0, 0.0, 0.0), 0.02)
-    env = gym.make(ENV_ID, plant=agent.meta["plant"], path=path, feedrate_m_s=feed)
+    env = gym.make(ENV_ID, plant=plant, path=path, feedrate_m_s=feed)
     env.reset(seed=0)
     core = env.unwrapped.core
     base = make_base(agent.base_name, env, agent.base_kwargs)
@@ -62,7 +64,7 @@ def cmd_export(args) -> int:
     if "onnx" in formats:
         _deploy_check()
     out = check_output_dir(args.out)
-    iface = write_c(args.model, out)
+    iface = write_c(args.model, out, plant=args.plant)
     files = list(iface["files"])
     if "c" not in formats:
         for f in files:
@@ -71,13 +73,13 @@ def cmd_export(args) -> int:
     if "onnx" in formats:
         from agents.export.onnx_law import write_onnx
 
-        files.append(str(write_onnx(args.model, out)))
+        files.append(str(write_onnx(args.model, out, plant=args.plant)))
     from agents.residual import read_model_metadata
 
     iface["algo"] = read_model_metadata(args.model)["algo"]
     bench = None
     if args.bench:
-        bench = _run_bench(args.model, out, formats, iface)
+        bench = _run_bench(args.model, out, formats, iface, args.plant)
     atomic_write_text(out / "README.md", readme_text(iface, files, bench))
     for f in files:
         print(f"wrote {f}")
@@ -87,7 +89,7 @@ def cmd_export(args) -> int:
         for form, b in bench.items():
             print(
                 f"{form}: median {b['median_us']:.2f} µs, p99 {b['p99_us']:.2f} µs per call; "
-                f"deciding calls (every {iface['action_repeat']}th): median "
+                f"deciding calls ({_every(iface['action_repeat'])}): median "
                 f"{b['deciding_median_us']:.2f} µs, p99 {b['deciding_p99_us']:.2f} µs "
                 f"({b['calls']} calls)"
             )
@@ -96,11 +98,15 @@ def cmd_export(args) -> int:
     return 0
 
 
-def _run_bench(model_dir, out, formats, iface) -> dict:
+def _every(k: int) -> str:
+    return "every call" if int(k) == 1 else f"every {int(k)}th"
+
+
+def _run_bench(model_dir, out, formats, iface, plant=None) -> dict:
     from agents.export.bench import bench_c, bench_onnx
     from agents.export.onnx_law import reset_state
 
-    inputs = _bench_inputs(model_dir)
+    inputs = _bench_inputs(model_dir, plant)
     order = [r["name"] for r in iface["inputs"]]
     repeat = int(iface["action_repeat"])
     res = {}
@@ -128,6 +134,13 @@ def add_export_command(subparsers) -> None:
     )
     p.add_argument("--model", required=True, help="trained model DIR (from `contour-env train`)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument(
+        "--plant",
+        default=None,
+        metavar="PLANT.json",
+        help="the plant file of an agent trained on one (default: the path its run's "
+        "config.json gives)",
+    )
     p.add_argument("--format", default="c,onnx", help="c, onnx or c,onnx (default c,onnx)")
     p.add_argument(
         "--bench",
