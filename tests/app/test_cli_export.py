@@ -73,3 +73,31 @@ def test_bad_input_is_one_line(tmp_path, capsys, argv, message):
     assert main(base) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
+
+
+@pytest.mark.parametrize("name", ["friction-table", "hsm2", "linear-motor"])
+def test_every_shipped_agent_exports_in_both_forms(tmp_path, name):
+    pytest.importorskip("onnx")
+    out = tmp_path / name
+    assert main(["export", "--model", str(MODELS / name), "--out", str(out)]) == 0
+    assert {p.name for p in out.iterdir()} >= {"residual.c", "residual.h", "residual.onnx",
+                                               "README.md"}  # fmt: skip
+
+
+def test_an_agent_of_a_plant_file_that_is_gone_is_refused_naming_the_option(tmp_path, capsys):
+    import json
+    import shutil
+
+    model = tmp_path / "m"
+    shutil.copytree(MODELS / "friction-table", model)
+    meta = json.loads((model / "agent.json").read_text())
+    meta.update(plant="identified", plant_file="plant.json")
+    (model / "agent.json").write_text(json.dumps(meta))
+    cfg = json.loads((model / "config.json").read_text())
+    cfg["plant"] = str(tmp_path / "gone" / "plant.json")
+    (model / "config.json").write_text(json.dumps(cfg))
+    assert main(["export", "--model", str(model), "--out", str(tmp_path / "o"),
+                 "--format", "c"]) == 2  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert "trained on a plant file (plant.json, plant 'identified')" in err
+    assert "give it with --plant" in err and "\n" not in err
