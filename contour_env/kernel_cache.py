@@ -60,6 +60,19 @@ def sources_digest(root: Path = PACKAGE) -> str:
     return h.hexdigest()
 
 
+def cache_is_cold(root: Path = PACKAGE) -> bool:
+    """Whether the env step's compiled kernels are not on disk yet (a fresh install, or kernel
+    sources changed): the first command then spends minutes compiling them."""
+    folder = root / "env" / "__pycache__"
+    return not any(folder.glob("kernel.*.nbi"))
+
+
+COLD_NOTE = (
+    "note: first run here: numba is compiling the simulation kernels (2-5 minutes on 2 cores, "
+    "once; later commands load them in seconds; `contour-env warm` does it up front)"
+)
+
+
 def refresh_stale_caches(root: Path = PACKAGE) -> list[Path]:
     """Delete the package's numba cache files if the kernel sources changed since they were
     written; return the files deleted (empty when the caches are current)."""

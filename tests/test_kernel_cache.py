@@ -46,3 +46,24 @@ def test_caches_are_kept_while_the_sources_are_unchanged_and_dropped_after_an_ed
 def test_every_module_with_numba_code_is_a_kernel_source():
     # a kernel module missing from the list would run against an old compiled kernel
     assert kernel_cache.KERNEL_SOURCES == kernel_cache.kernel_sources()
+
+
+def test_a_cold_cache_is_announced_before_a_command_and_not_for_a_listing(tmp_path, capsys):
+    from contour_env import kernel_cache
+    from contour_env.app.cli import _cold_cache_note
+
+    class Args:
+        command = "compare"
+
+    (tmp_path / "env" / "__pycache__").mkdir(parents=True)
+    assert kernel_cache.cache_is_cold(tmp_path)
+    (tmp_path / "env" / "__pycache__" / "kernel.step-1.py311.nbi").write_text("")
+    assert not kernel_cache.cache_is_cold(tmp_path)
+    import unittest.mock as mock
+
+    with mock.patch.object(kernel_cache, "cache_is_cold", return_value=True):
+        _cold_cache_note(Args())
+        Args.command = "cases"
+        _cold_cache_note(Args())
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [kernel_cache.COLD_NOTE]

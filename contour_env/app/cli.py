@@ -712,12 +712,26 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None,
         print(warnings.formatwarning(message, category, filename, lineno, line), file=sys.stderr)
 
 
+# commands that run no compiled kernel (listing and checking only)
+NO_KERNEL_COMMANDS = ("cases", "controllers", "models")
+
+
+def _cold_cache_note(args) -> None:
+    """One line on stderr before a command that will compile the kernels first (a fresh
+    install sits silent for minutes otherwise, and looks hung)."""
+    from ..kernel_cache import COLD_NOTE, cache_is_cold
+
+    if getattr(args, "command", None) not in NO_KERNEL_COMMANDS and cache_is_cold():
+        print(COLD_NOTE, file=sys.stderr, flush=True)
+
+
 def main(argv=None) -> int:
     from ..io import OutputPathError
 
     parser = build_parser()
     args = parser.parse_args(argv)
     np.set_printoptions(precision=4)
+    _cold_cache_note(args)
     try:
         _check_outputs(args)
         with warnings.catch_warnings():
