@@ -26,24 +26,27 @@ yet) and stored in the summary and ``agent.json`` (``time_to_target``).
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 # a fraction of the base's RMS contour error on the training tasks
 TARGET_RATIO = 0.70
 # seconds of training after which the expected time is re-estimated from the run's own rate
 EXPECT_AFTER_S = 30.0
 # agent steps per second of training time (evaluations excluded) by (algo, n_envs), measured
-# on this 2-core machine kind on lm-circle3d over CCC, one core, 10 minutes each
-# (scripts/time_to_target.py, 2026-12-05; README "Time to target"); another envs count takes
-# the nearest measured one's rate; an algorithm not measured (td3) has none
-REFERENCE_STEPS_PER_S = {
-    ("sac", 1): 173.0,
-    ("sac", 4): 404.0,  # 2 gradient steps per update of 4 transitions (the sac-4 preset)
-    ("sbx-sac", 1): 304.0,
-    ("sbx-sac", 4): 713.0,  # 4 gradient steps per update
-    ("ppo", 256): 46_000.0,  # the ppo-256 preset (scripts/ppo_preset.py)
-    ("sbx-ppo", 256): 46_000.0,  # not measured apart: sb3 PPO's figure
-}
+# on this 2-core machine kind: a data file that says which command and commit measured them
+# (agents/rl/data/reference_rates.json, from docs/time_to_target.json); another envs count
+# takes the nearest measured one's rate; an algorithm not measured (td3) has none
+RATES_FILE = Path(__file__).resolve().parent / "data" / "reference_rates.json"
+
+
+def _load_rates(path: Path = RATES_FILE) -> dict:
+    data = json.loads(path.read_text(encoding="utf-8"))
+    return {(r["algo"], int(r["n_envs"])): float(r["steps_per_s"]) for r in data["rates"]}
+
+
+REFERENCE_STEPS_PER_S = _load_rates()
 
 KEYS = ("validation_base_level", "validation_eligible", "training_tasks_target")
 LABELS = {

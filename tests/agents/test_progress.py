@@ -199,3 +199,26 @@ def test_the_teacher_options_reach_the_configuration_and_a_budget_alone_ends_by_
     assert (cfg.teacher_parts, cfg.teacher_trials, cfg.teacher_regularization) == (7, 4, 2.5)
     assert cfg.scale == 0.10  # the linear motor's default authority
     assert cli_rl.config_from_args(_args()).timesteps == cli_rl.DEFAULT_TIMESTEPS
+
+
+def test_the_reference_rates_are_the_measured_ones_of_their_record():
+    """agents/rl/data/reference_rates.json against the runs it names (docs/
+    time_to_target.json): each rate is its run's agent steps/s rounded (within 0.5 %)."""
+    import json
+    from pathlib import Path
+
+    from agents.rl.progress import RATES_FILE
+
+    data = json.loads(RATES_FILE.read_text())
+    assert (
+        data["measured_by"]
+        and data["record"] == "docs/time_to_target.json (runs[].agent_steps_per_s)"
+    )
+    record = json.loads(
+        (Path(__file__).resolve().parents[2] / "docs" / "time_to_target.json").read_text()
+    )
+    measured = {(r["algo"], r["n_envs"]): r["agent_steps_per_s"] for r in record["runs"]}
+    for (algo, n), rate in REFERENCE_STEPS_PER_S.items():
+        if (algo, n) in measured:
+            assert rate == pytest.approx(measured[(algo, n)], rel=0.005), (algo, n)
+    assert len([k for k in REFERENCE_STEPS_PER_S if k in measured]) == 5
