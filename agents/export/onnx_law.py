@@ -234,10 +234,6 @@ class Law(torch.nn.Module):
         )  # fmt: skip
 
 
-def _module(s: dict) -> Law:
-    return Law(s)
-
-
 def example_inputs(s: dict):
     """Zero tensors of every input and state (the shapes of describe_interface), float64."""
     n, p = s["n"], len(s["preview_steps"])
@@ -275,7 +271,7 @@ def write_onnx(model_dir, out_dir, *, config=None, plant=None) -> Path:
     from .c_law import _law_settings
 
     s = _law_settings(model_dir, config, plant)
-    law = _module(s).eval()
+    law = Law(s).eval()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / FILE

@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-import os
+import tempfile
 
 FORMATS = ("c", "onnx")
 
@@ -64,11 +64,12 @@ def cmd_export(args) -> int:
     if "onnx" in formats:
         _deploy_check()
     out = check_output_dir(args.out)
-    iface = write_c(args.model, out, plant=args.plant)
-    files = list(iface["files"])
-    if "c" not in formats:
-        for f in files:
-            os.remove(f)
+    if "c" in formats:
+        iface = write_c(args.model, out, plant=args.plant)
+        files = list(iface["files"])
+    else:  # the interface only (the same description the C form's README gives)
+        with tempfile.TemporaryDirectory(prefix="residual-iface-") as tmp:
+            iface = write_c(args.model, tmp, plant=args.plant)
         files = []
     if "onnx" in formats:
         from agents.export.onnx_law import write_onnx

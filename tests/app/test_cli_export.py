@@ -101,3 +101,12 @@ def test_an_agent_of_a_plant_file_that_is_gone_is_refused_naming_the_option(tmp_
     err = capsys.readouterr().err.strip()
     assert "trained on a plant file (plant.json, plant 'identified')" in err
     assert "give it with --plant" in err and "\n" not in err
+
+
+def test_onnx_alone_writes_no_c_and_still_documents_the_interface(tmp_path):
+    pytest.importorskip("onnx")
+    out = tmp_path / "o"
+    assert main(["export", "--model", str(MODELS / "linear-motor"), "--out", str(out),
+                 "--format", "onnx"]) == 0  # fmt: skip
+    assert {p.name for p in out.iterdir()} == {"residual.onnx", "README.md"}
+    assert "| `encoder_position` | m | 3 |" in (out / "README.md").read_text()
