@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-FOLDERS = ("contour_env", "agents", "scripts")
+FOLDERS = ("contour_env", "agents", "scripts", "research")
 
 
 def function_lengths(root: Path = ROOT) -> list[tuple[int, str]]:

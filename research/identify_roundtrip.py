@@ -1,4 +1,12 @@
-"""Round trip of the identification on the package's own plants: excite → simulated trace →
+"""Question: Does `identify` recover the package's own plants from a simulated excitation trace,
+and does the identified plant predict a held-out circle?
+
+Answer: Yes: masses and friction within a few % (negligible viscous terms apart) and the held-
+out circle's RMS contour error within 0.05 % on every named 2- and 3-axis plant.
+
+Cited by: README.md ("Round trip").
+
+Round trip of the identification on the package's own plants: excite → simulated trace →
 identify → plant file → a held-out circle on both plants.
 
 For each named 2- and 3-axis plant (realistic: friction, ripple, disturbance, delay, current
@@ -11,7 +19,7 @@ was never part of the trace (radius 20 mm, 40 % of the plant's highest circle fe
 run under the same PD law (the named plant's gains, given explicitly, so both runs use one law)
 on the true plant and on the plant from the file: RMS and max contour error and their ratio.
 
-    python scripts/identify_roundtrip.py [--plants hsm2,linear-motor] [--noise 1e-7]
+    python research/identify_roundtrip.py [--plants hsm2,linear-motor] [--noise 1e-7]
         [--json OUT.json]
 
 Exit status 1 when a figure misses the issue's tolerances (mass and viscous 5 %, Coulomb and

@@ -1,4 +1,12 @@
-"""Vector-env stepping speed on the plants with friction, by kind of action (issue 20 item 2).
+"""Question: How fast does the vector env step on the plants with friction, by kind of action
+(tracking, zero, small and large random actions)?
+
+Answer: Small random actions cost 0.43 of the tracking rate after the Stribeck exponential went
+to its Taylor series; the figures per plant are printed by this script.
+
+Cited by: README.md (the friction stepping paragraph).
+
+Vector-env stepping speed on the plants with friction, by kind of action (issue 20 item 2).
 
 For each case (one per plant with friction) a ``gymnasium.make_vec(..., vectorization_mode=
 "vector_entry_point")`` env of ``--num-envs`` envs is stepped with
@@ -12,7 +20,7 @@ and only ``venv.step`` is timed (the controller and the random draws are not). P
 env-steps/s (best of the timing windows) and the ratio to ``track``. Everything is seeded;
 numba's thread count is left at its default.
 
-    python scripts/friction_speed.py [--num-envs 4096] [--windows 3] [--steps 100]
+    python research/friction_speed.py [--num-envs 4096] [--windows 3] [--steps 100]
 """
 
 from __future__ import annotations

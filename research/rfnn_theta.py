@@ -1,4 +1,12 @@
-"""What the recurrent weights θ of ``rfnn`` do on a run (issue 38): how far they move, and the
+"""Question: What do the recurrent weights θ of rfnn do on a run: how far do they move, and how
+large is Chen & Lee 2020's eq. 23 per sample?
+
+Answer: With the default θ0 they barely move and their learning changes nothing shown; the
+tables [B] and [C] of docs/RFNN.md give the figures.
+
+Cited by: docs/RFNN.md (tables [B], [C]).
+
+What the recurrent weights θ of ``rfnn`` do on a run (issue 38): how far they move, and the
 largest per-sample value of Chen & Lee 2020's eq. 23 the run met.
 
 For each controller (``rfnn`` / ``fnn`` variants) one episode of the case (seed 0, realistic
@@ -18,9 +26,9 @@ g_paper,ij = −w_j O_j⁽³⁾ · 2 (u_ij − m_ij) O_ij(k−1) / σ_ij² (the 
 unnormalised Σ w_j O_j⁽³⁾), against the law's exact gradient of eq. 7's normalised output,
 g_ij = −ψ_j (w_j − y) · 2 (u_ij − m_ij) O_ij(k−1) / σ_ij² (samples where g = 0 left out)::
 
-    python scripts/rfnn_theta.py --case lm-circle3d --controllers rfnn,rfnn:theta0=0 --python
-    python scripts/rfnn_theta.py --tuning --controllers rfnn:instant=1:lr_theta=80
-    python scripts/rfnn_theta.py --case lm-circle3d --feedrate 0.25 --controllers rfnn \
+    python research/rfnn_theta.py --case lm-circle3d --controllers rfnn,rfnn:theta0=0 --python
+    python research/rfnn_theta.py --tuning --controllers rfnn:instant=1:lr_theta=80
+    python research/rfnn_theta.py --case lm-circle3d --feedrate 0.25 --controllers rfnn \
         --paper-gradient
 """
 
@@ -41,7 +49,7 @@ from contour_env import ENV_ID
 from contour_env.evaluation import run_episode
 from contour_env.metrics import score
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 from rfnn_tune import tuning_env  # noqa: E402
 
 PERCENTILES = (5, 25, 50, 75, 95)
