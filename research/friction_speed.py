@@ -4,7 +4,7 @@
 Answer: Small random actions cost 0.43 of the tracking rate after the Stribeck exponential went
 to its Taylor series; the figures per plant are printed by this script.
 
-Cited by: README.md (the friction stepping paragraph).
+Cited by: docs/speed.md (the friction stepping paragraph).
 
 Vector-env stepping speed on the plants with friction, by kind of action (issue 20 item 2).
 

@@ -4,7 +4,7 @@ and does the identified plant predict a held-out circle?
 Answer: Yes: masses and friction within a few % (negligible viscous terms apart) and the held-
 out circle's RMS contour error within 0.05 % on every named 2- and 3-axis plant.
 
-Cited by: README.md ("Round trip").
+Cited by: docs/machine.md ("Round trip").
 
 Round trip of the identification on the package's own plants: excite → simulated trace →
 identify → plant file → a held-out circle on both plants.

@@ -1,7 +1,14 @@
-"""Regenerate the README's generated tables in place, from a benchmark report.
+"""Regenerate the generated tables of the README and the docs pages in place, from a benchmark
+report.
 
-    python scripts/readme_figures.py [--only NAME[,NAME...]] [--check] [--readme README.md]
+    python scripts/readme_figures.py [--only NAME[,NAME...]] [--check] [--readme FILE ...]
         [--report DIR | --out DIR [--workers N]]
+
+The tables live where their topic is (``docs/controllers.md``, ``docs/ilc.md``,
+``docs/paths.md``, ``docs/training.md``): each generated section is found in whichever of
+README.md and ``docs/*.md`` holds it (:data:`DOCS`; ``--readme FILE``, repeatable, names the
+files instead). A section in two files is an error; a section stamped by another script
+(``(scripts/files_doc.py)`` in docs/FILES.md) is that script's and is left alone.
 
 The tables come from the records of ``contour-env benchmark --suite readme`` (the ``readme``
 suite runs exactly what the tables need, :data:`contour_env.app.benchmark.suite.README_TABLES`):
@@ -19,7 +26,7 @@ error). Each generated table sits between two HTML comments (invisible on GitHub
 and is replaced by its rendering; the BEGIN line is stamped with the date and the commit of
 the report (its ``meta``: the UTC date of its timestamp, ``code_version``'s commit, short,
 ``-dirty`` when tracked files had uncommitted changes). Text outside the markers is never
-touched, and the README is written atomically.
+touched, and each file is written atomically.
 
 Tables (runs of the ``readme`` suite; times on a 2-core machine, serial):
 
@@ -36,8 +43,8 @@ Tables (runs of the ``readme`` suite; times on a 2-core machine, serial):
 
 ``--only`` renders the named ones; ``--check`` writes nothing and exits 1 when a table would
 change (the stamps are ignored: a table is stale when its content differs, not its date).
-A table that did not change keeps its stamp. A marker in the README without a table, or a
-table named in ``--only`` without its markers, is an error.
+A table that did not change keeps its stamp. A marker without a generator, or a table named in
+``--only`` without its markers, is an error.
 """
 
 from __future__ import annotations
@@ -54,6 +61,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+# the files searched for generated sections: the README and every docs page
+DOCS = [README, *sorted((ROOT / "docs").glob("*.md"))]
 REPORT_DIR = ROOT / "out" / "readme-report"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
@@ -67,6 +76,14 @@ MARKER = re.compile(
     r"(?P<end><!-- END generated: (?P=name) -->)",
     re.DOTALL,
 )
+
+# a section stamped by another script is that script's (docs/FILES.md: scripts/files_doc.py)
+OTHER_SCRIPT = re.compile(r"\(scripts/(?!readme_figures\.py)")
+
+
+def _own(m: re.Match) -> bool:
+    return not OTHER_SCRIPT.match(m["stamp"].strip())
+
 
 # where the report comes from (set by main) and, once read, its results.json
 SOURCE: dict = {"report": None, "out": REPORT_DIR, "workers": 1, "only": None, "data": None}
@@ -144,12 +161,12 @@ def stamp(date: str | None = None, commit: str | None = None) -> str:
 
 def sections(text: str) -> dict[str, str]:
     """The body (table) of every generated section, by name."""
-    return {m["name"]: m["body"] for m in MARKER.finditer(text)}
+    return {m["name"]: m["body"] for m in MARKER.finditer(text) if _own(m)}
 
 
 def stamps(text: str) -> dict[str, str]:
     """The stamp of every generated section's BEGIN line, by name."""
-    return {m["name"]: m["stamp"].strip() for m in MARKER.finditer(text)}
+    return {m["name"]: m["stamp"].strip() for m in MARKER.finditer(text) if _own(m)}
 
 
 def replace_sections(text: str, tables: dict[str, str], stamp_text: str) -> str:
@@ -158,11 +175,11 @@ def replace_sections(text: str, tables: dict[str, str], stamp_text: str) -> str:
     found = sections(text)
     missing = sorted(set(tables) - set(found))
     if missing:
-        raise ValueError(f"README: no generated section for {', '.join(missing)}")
+        raise ValueError(f"no generated section for {', '.join(missing)}")
 
     def sub(m: re.Match) -> str:
         name = m["name"]
-        if name not in tables:
+        if name not in tables or not _own(m):
             return m.group(0)
         body = tables[name].rstrip("\n") + "\n"
         return f"<!-- BEGIN generated: {name}{stamp_text}-->\n{body}{m['end']}"
@@ -170,8 +187,25 @@ def replace_sections(text: str, tables: dict[str, str], stamp_text: str) -> str:
     return MARKER.sub(sub, text)
 
 
-def update_readme(
-    path=README,
+def locate(paths=None) -> dict[str, Path]:
+    """The file that holds each generated section, by name (``paths`` default :data:`DOCS`); a
+    section in two files is a ``ValueError``."""
+    where: dict[str, Path] = {}
+    for p in [Path(p) for p in (DOCS if paths is None else paths)]:
+        for name in sections(p.read_text(encoding="utf-8")):
+            if name in where:
+                raise ValueError(f"generated section {name} is in {where[name]} and in {p}")
+            where[name] = p
+    return where
+
+
+def update_readme(path=README, **kwargs) -> int:
+    """Regenerate the sections of the one file at ``path`` (:func:`update_files`)."""
+    return update_files([path], **kwargs)
+
+
+def update_files(
+    paths=None,
     *,
     only=None,
     check: bool = False,
@@ -179,21 +213,26 @@ def update_readme(
     stamp_text: str | None = None,
     log=print,
 ) -> int:
-    """Regenerate the sections of the README at ``path``; returns the exit status (``check``:
-    1 when a table would change, nothing written)."""
+    """Regenerate the generated sections of ``paths`` (default :data:`DOCS`), each in the file
+    that holds it; returns the exit status (``check``: 1 when a table would change, nothing
+    written)."""
     from contour_env.io import atomic_write_text
 
     generators = GENERATORS if generators is None else generators
-    path = Path(path)
-    text = path.read_text(encoding="utf-8")
-    present = sections(text)
+    paths = [Path(p) for p in (DOCS if paths is None else paths)]
+    texts = {p: p.read_text(encoding="utf-8") for p in paths}
+    where = locate(paths)
+    present = {n: sections(texts[p])[n] for n, p in where.items()}
     unknown = sorted(set(present) - set(generators))
     if unknown:
-        raise ValueError(f"README: generated section(s) without a generator: {unknown}")
+        raise ValueError(f"generated section(s) without a generator: {unknown}")
     names = list(present) if only is None else list(only)
     bad = sorted(set(names) - set(generators))
     if bad:
         raise ValueError(f"--only: unknown generator(s) {bad}; known: {', '.join(generators)}")
+    missing = sorted(set(names) - set(present))
+    if missing:
+        raise ValueError(f"no generated section for {', '.join(missing)}")
     tables = {}
     for name in names:
         log(f"generating {name} ...")
@@ -201,19 +240,27 @@ def update_readme(
     stale = [n for n in names if tables[n] != present.get(n)]
     if check:
         for n in stale:
-            log(f"{path.name}: {n} is out of date")
+            log(f"{where[n].name}: {n} is out of date")
         return 1 if stale else 0
     # a table that did not change keeps its stamp (the commit it was made at still made it),
     # unless it was never stamped
-    old_stamps = stamps(text)
-    write = {n: t for n, t in tables.items() if n in stale or "commit" not in old_stamps[n]}
-    if write:
-        new = replace_sections(text, write, stamp_text if stamp_text is not None else stamp())
-        atomic_write_text(path, new)
-    log(
-        f"{path.name}: regenerated {', '.join(names) or 'nothing'}; "
-        f"changed: {', '.join(stale) or 'none'}"
-    )
+    for p, text in texts.items():
+        old_stamps = stamps(text)
+        write = {
+            n: t
+            for n, t in tables.items()
+            if where[n] == p and (n in stale or "commit" not in old_stamps[n])
+        }
+        if write:
+            new = replace_sections(text, write, stamp_text if stamp_text is not None else stamp())
+            atomic_write_text(p, new)
+    for p in paths:
+        mine = [n for n in names if where[n] == p]
+        if mine:
+            changed = [n for n in stale if where[n] == p]
+            log(f"{p.name}: regenerated {', '.join(mine)}; changed: {', '.join(changed) or 'none'}")
+    if not names:
+        log("regenerated nothing")
     return 0
 
 
@@ -223,7 +270,13 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--check", action="store_true", help="exit 1 if a table would change; write nothing"
     )
-    ap.add_argument("--readme", default=str(README), help="the README to update")
+    ap.add_argument(
+        "--readme",
+        action="append",
+        metavar="FILE",
+        help="a file to update (repeatable; default README.md and docs/*.md, each table where it "
+        "is)",
+    )
     ap.add_argument(
         "--report",
         metavar="DIR",
@@ -241,7 +294,7 @@ def main(argv=None) -> int:
     only = [n.strip() for n in args.only.split(",") if n.strip()] if args.only else None
     SOURCE.update(report=args.report, out=args.out, workers=args.workers, only=only, data=None)
     try:
-        return update_readme(args.readme, only=only, check=args.check)
+        return update_files(args.readme, only=only, check=args.check)
     except ValueError as exc:
         ap.error(str(exc))
     except RuntimeError as exc:

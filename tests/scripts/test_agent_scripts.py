@@ -191,7 +191,8 @@ def test_a_refused_agent_is_installed_as_its_base(tiny_model, tmp_path, monkeypa
 
 def test_teacher_ablation_commands_and_table_from_its_record():
     """scripts/teacher_ablation.py: each variant is one contour-env train command with its
-    options; the README table is made from the recorded cards (docs/teacher_ablation_*.json)."""
+    options; the table of docs/training.md is made from the recorded cards
+    (docs/teacher_ablation_*.json)."""
     mod = _script("teacher_ablation")
     cmd = mod.command("friction-table", "ccc", 180, 2, "teacher+rl-noenv", Path("o"))
     assert cmd[cmd.index("--teacher") + 1] == "ilc-contour" and "--no-envelope" in cmd
@@ -201,5 +202,5 @@ def test_teacher_ablation_commands_and_table_from_its_record():
     assert set(rec["cards"]) == set(mod.VARIANTS) and rec["seeds"] == [0, 1, 2]
     assert rec["summary"] == mod.summarise(rec["cards"])
     table = mod.markdown(rec)
-    assert table in (ROOT / "README.md").read_text()
+    assert table in (ROOT / "docs" / "training.md").read_text()
     assert len(table.splitlines()) == 2 + len(mod.VARIANTS)

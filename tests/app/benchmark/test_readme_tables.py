@@ -1,5 +1,6 @@
-"""The README's tables from a benchmark report: the ``readme`` suite, the renderers
-(:mod:`contour_env.app.benchmark.readme_tables`) and ``scripts/readme_figures.py --report``.
+"""The generated tables of the README and the docs pages from a benchmark report: the ``readme``
+suite, the renderers (:mod:`contour_env.app.benchmark.readme_tables`) and
+``scripts/readme_figures.py --report``.
 
 Synthetic records for the layout (every table, no run), a few real runs for the kinds the
 README adds (``design``) and one real table (Lee 2012, one circle)."""
@@ -19,7 +20,6 @@ from contour_env.app.benchmark.report import build_records, write_report
 from contour_env.app.benchmark.runs import execute
 
 ROOT = Path(__file__).resolve().parents[3]
-README = ROOT / "README.md"
 VERSION = {"package": "contour_env", "version": "0.0", "commit": "0123456789abcdef-dirty"}
 
 
@@ -174,12 +174,15 @@ def test_the_report_of_the_readme_suite_shows_the_new_kinds_and_draws_no_figure_
 
 def test_every_table_renders_from_the_records_in_the_readme_layout(fake_report, readme_figures):
     records = json.loads((fake_report / "results.json").read_text())["records"]
-    readme = readme_figures.sections(README.read_text(encoding="utf-8"))
+    readme = {
+        name: readme_figures.sections(path.read_text(encoding="utf-8"))[name]
+        for name, path in readme_figures.locate().items()
+    }
     for name in S.README_TABLES:
         text = T.render(name, records)
         lines = text.splitlines()
         old = readme[name].splitlines()
-        assert lines[:2] == old[:2], name  # the header of today's README table
+        assert lines[:2] == old[:2], name  # the header of today's table in the docs
         assert len(lines) - 2 == len(S.README_TABLES[name]()) or name == "corner_blend_table"
     lee = T.render("lee2012_table", records).splitlines()
     # our figures, then Lee's (published.py) beside them; our ccc has no published row
@@ -229,18 +232,31 @@ def test_the_stamp_is_the_reports_date_and_short_commit():
 # ------------------------------------------------------------ scripts/readme_figures.py
 
 
-def test_readme_figures_renders_a_copy_of_the_readme_from_a_report(
+def _copy_pages(mod, tmp_path) -> list[Path]:
+    """Copies of the files that hold the generated tables (README.md and docs pages)."""
+    copies = []
+    for page in sorted(set(mod.locate().values())):
+        copies.append(tmp_path / page.name)
+        shutil.copy(page, copies[-1])
+    return copies
+
+
+def _joined(copies) -> str:
+    return "\n".join(c.read_text(encoding="utf-8") for c in copies)
+
+
+def test_readme_figures_renders_copies_of_the_pages_from_a_report(
     fake_report, tmp_path, readme_figures
 ):
     mod = readme_figures
-    copy = tmp_path / "README.md"
-    shutil.copy(README, copy)
-    before = copy.read_text(encoding="utf-8")
-    args = ["--report", str(fake_report), "--readme", str(copy)]
+    copies = _copy_pages(mod, tmp_path)
+    files = [a for c in copies for a in ("--readme", str(c))]
+    before = _joined(copies)
+    args = ["--report", str(fake_report), *files]
     assert mod.main([*args, "--check"]) == 1  # synthetic figures: every table would change
-    assert copy.read_text(encoding="utf-8") == before
+    assert _joined(copies) == before
     assert mod.main([*args, "--only", "ilc_table,corner_blend_table"]) == 0
-    new = copy.read_text(encoding="utf-8")
+    new = _joined(copies)
     records = json.loads((fake_report / "results.json").read_text())["records"]
     assert mod.sections(new)["ilc_table"] == T.render("ilc_table", records) + "\n"
     stamps = mod.stamps(new)
@@ -258,18 +274,18 @@ def test_readme_figures_renders_a_copy_of_the_readme_from_a_report(
     data["records"] = [r for r in data["records"] if r["kind"] != S.DESIGN]
     (partial / "results.json").write_text(json.dumps(data))
     with pytest.raises(SystemExit):
-        mod.main(["--report", str(partial), "--readme", str(copy), "--only", "controller_table"])
+        mod.main(["--report", str(partial), *files, "--only", "controller_table"])
     with pytest.raises(SystemExit):
-        mod.main(["--report", str(tmp_path / "none"), "--readme", str(copy)])
-    assert copy.read_text(encoding="utf-8") == new
+        mod.main(["--report", str(tmp_path / "none"), *files])
+    assert _joined(copies) == new
 
 
 def test_readme_figures_without_a_report_runs_the_readme_suite_of_the_named_tables(
     fake_report, tmp_path, monkeypatch, readme_figures
 ):
     mod = readme_figures
-    copy = tmp_path / "README.md"
-    shutil.copy(README, copy)
+    copies = _copy_pages(mod, tmp_path)
+    files = [a for c in copies for a in ("--readme", str(c))]
     calls = []
 
     def fake_run(out, tables=None, workers=1):
@@ -278,10 +294,10 @@ def test_readme_figures_without_a_report_runs_the_readme_suite_of_the_named_tabl
 
     monkeypatch.setattr(mod, "run_benchmark", fake_run)
     out = tmp_path / "rep"
-    argv = ["--readme", str(copy), "--only", "lee2012_table", "--out", str(out), "--workers", "2"]
+    argv = [*files, "--only", "lee2012_table", "--out", str(out), "--workers", "2"]
     assert mod.main(argv) == 0
     assert calls == [(str(out), ["lee2012_table"], "2")]
-    assert "2031-04-05, commit 0123456-dirty" in mod.stamps(copy.read_text())["lee2012_table"]
+    assert "2031-04-05, commit 0123456-dirty" in mod.stamps(_joined(copies))["lee2012_table"]
 
 
 # --------------------------------------------------------------------- real runs
