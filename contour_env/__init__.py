@@ -7,10 +7,13 @@ case, plant or path (``gym.make("contour_env/Contouring-v0")``) it is the defaul
 
 from gymnasium.envs.registration import register, registry
 
-from .kernel_cache import refresh_stale_caches
+from .kernel_cache import install_locator, refresh_stale_caches
 
-# before any kernel is compiled or loaded: drop caches made from other kernel sources
-refresh_stale_caches()
+# before any kernel is compiled or loaded: the kernels cache in one folder per digest of their
+# sources, shared by every checkout on this machine (contour_env.kernel_cache); numba's default
+# in-tree folders, when the user chose theirs, lose caches made from other kernel sources
+if not install_locator():
+    refresh_stale_caches()
 
 ENV_ID = "contour_env/Contouring-v0"
 # the case of an env made without case, plant or path, and of the command line without --case

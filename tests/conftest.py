@@ -7,6 +7,7 @@ split over N processes: otherwise every worker compiles all of them at the same 
 from __future__ import annotations
 
 import importlib.util
+import os
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,9 @@ def pytest_configure(config):
     n = getattr(config.option, "numprocesses", None)
     if not isinstance(n, int) or n < 2:
         return
+    # one worker per core: numpy's and scipy's OpenBLAS would start a thread per core in every
+    # worker, and the workers' threads contend (the workers inherit this before numpy loads)
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from contour_env.app import warmup
 
     if warmup.cache_is_cold():
@@ -52,3 +56,31 @@ def load_script():
 def readme_figures():
     """``scripts/readme_figures.py`` as a fresh module."""
     return _load_script("readme_figures")
+
+
+def once_per_run(tmp_path_factory, key: str, compute):
+    """``compute()``, computed once per test run even when the xdist workers split a module's
+    tests between them (a module-scoped fixture would run once per worker): the first worker
+    to ask computes it under a file lock and pickles it into the run's shared temporary folder,
+    the others load it. Without xdist it is simply computed."""
+    import pickle
+
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return compute()
+    from filelock import FileLock
+
+    path = tmp_path_factory.getbasetemp().parent / f"once-{key}.pkl"
+    with FileLock(str(path) + ".lock"):
+        if path.is_file():
+            return pickle.loads(path.read_bytes())
+        value = compute()
+        tmp = path.with_suffix(".tmp")
+        tmp.write_bytes(pickle.dumps(value))
+        tmp.replace(path)
+        return value
+
+
+@pytest.fixture(scope="session")
+def shared(tmp_path_factory):
+    """``shared(KEY, compute)``: :func:`once_per_run` for this run."""
+    return lambda key, compute: once_per_run(tmp_path_factory, key, compute)

@@ -42,19 +42,24 @@ FIELD = {"mass": "mass_kg", "viscous": "viscous_Ns_m", "coulomb": "coulomb_N", "
 NEGLIGIBLE_VISCOUS_NS_M = 1e-6  # below this a 5 % tolerance is below any measurement
 
 
-@pytest.fixture(scope="module", params=PLANTS)
-def identified(request, tmp_path_factory):
-    plant = request.param
+def _identify(plant, folder):
     exc = excite(plant, noise_m=NOISE_M, seed=SEED)
     trace = trace_from_arrays(
         exc.time_s, exc.simulated_command, exc.simulated_position, exc.axes, source=plant
     )
     ident = identify(trace)
     true = resolve_plant(plant)[0]
-    path = tmp_path_factory.mktemp("plants") / f"{plant}.json"
+    path = folder / f"{plant}.json"
     write_plant(path, ident, name=f"identified-{plant}", input_kind=true.input_kind)
     top = {a: max(v) for a, v in exc.settings["speeds_m_s"].items()}  # m/s
     return plant, ident, true, path, top
+
+
+@pytest.fixture(scope="module", params=PLANTS)
+def identified(request, tmp_path_factory, shared):
+    # once per run: the fits take 10-60 s per plant, and xdist may split a plant's tests
+    plant = request.param
+    return shared(f"identified-{plant}", lambda: _identify(plant, tmp_path_factory.mktemp(plant)))
 
 
 def test_parameters_within_tolerance(identified):

@@ -3,19 +3,22 @@ loops that run them with the env kernel (``contour_env.evaluation.run_episode`` 
 path for ``pd``, ``ccc``, ``adaptive-ccc``, ``jee-ccc``, ``rfnn`` and ``fnn``;
 ``compiled=False`` or ``CONTOUR_ENV_COMPILED=0`` keeps the Python ``act``).
 
-The loops inline the env kernel, whose sources numba's cache does not track: on import, the
-caches of this package are deleted when any of those sources (or the laws) changed, as
-:mod:`contour_env.kernel_cache` does for the env's own."""
+The loops inline the env kernel, whose sources numba's cache does not track: their caches live
+in a folder keyed by the digest of those sources and of this package's modules
+(:mod:`contour_env.kernel_cache`). When numba's default in-tree folders are in use instead, the
+caches of this package are deleted on import when any of those sources changed."""
 
 from __future__ import annotations
 
 import hashlib
 from pathlib import Path
 
-from contour_env.kernel_cache import KERNEL_SOURCES, PACKAGE
+from contour_env.kernel_cache import KERNEL_SOURCES, PACKAGE, locator_installed
 
 
 def _refresh_caches() -> None:
+    if locator_installed():
+        return  # the digest folders: nothing stale can be found
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
     # the env's kernel sources and every module of this package (the laws, the loops)

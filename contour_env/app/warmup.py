@@ -182,5 +182,8 @@ def cache_is_cold() -> bool:
     """True when the friction slow path (which every kernel calls) has no cache entry yet."""
     from .. import kernel_cache
 
-    folder = kernel_cache.PACKAGE / "plants" / "__pycache__"
+    if kernel_cache.locator_installed():
+        folder = kernel_cache.digest_folders()[0] / "plants"
+    else:
+        folder = kernel_cache.PACKAGE / "plants" / "__pycache__"
     return not any(folder.glob("kernel._axis_step_slow-*.nbi"))

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..plants.kernel import plant_step_batch
 from ..plants.model import PackedPlant
+from .kernel import simulate_steps, start_velocity_response
 from .pack import _pack, _params_of
 from .trace import _quantum
 
@@ -174,48 +174,40 @@ def simulate_windows(thetas, ua: np.ndarray, win: _Windows, T: float):
     stuck = np.where(win.still[win_of], 1.0, 0.0)
     pending = np.zeros((B, 2))
     applied = np.zeros((B, 2))
-    w_extra = np.zeros((B, 2))
     xs = np.empty((H, B, 2))
     vs = np.empty((H, B, 2))
     n_sub = plist[0].friction_substeps
     # periodic forces against the drive (disturbance in time, ripple in position), held over
     # each period at its mid-point, through the step's extra force
     per_env = thetas[pidx]  # (B, N_THETA)
-    periodic = bool(np.any(per_env[:, 6:8] != 0) or np.any(per_env[:, 9:11] != 0))
-    d_s, d_c, w_d = per_env[:, 6:7], per_env[:, 7:8], 2 * np.pi * per_env[:, 8:9]
-    r_s, r_c, k_r = per_env[:, 9:10], per_env[:, 10:11], per_env[:, 11:12]
     steps = np.arange(H)
     U = np.ascontiguousarray(ua[starts[None, :, :] + steps[:, None, None]])  # (H, B, 2)
-    ripple = bool(np.any(per_env[:, 9:11] != 0))
-    if periodic:
+    dist = np.zeros((0, 0, 0))
+    if np.any(per_env[:, 6:8] != 0):
+        d_s, d_c, w_d = per_env[:, 6:7], per_env[:, 7:8], 2 * np.pi * per_env[:, 8:9]
         ph = w_d[None] * ((starts[None] + steps[:, None, None] + 0.5) * T)
-        dist = d_s[None] * np.sin(ph) + d_c[None] * np.cos(ph)  # (H, B, 2)
-    for j in range(H):
-        u = U[j]
-        if periodic:
-            w_extra = -dist[j]
-            if ripple:
-                ang = k_r * (z[:, :, 0] + 0.5 * T * z[:, :, 1])
-                w_extra = w_extra - (r_s * np.sin(ang) + r_c * np.cos(ang))
-        plant_step_batch(
-            z,
-            stuck,
-            pending,
-            u,
-            0.0,
-            T,
-            n_sub,
-            False,
-            packed.mat_T,
-            packed.mat_h,
-            packed.cont,
-            packed.nl,
-            packed.pidx,
-            applied,
-            w_extra,
-        )
-        xs[j] = z[:, :, 0]
-        vs[j] = z[:, :, 1]
+        dist = np.ascontiguousarray(d_s[None] * np.sin(ph) + d_c[None] * np.cos(ph))
+    ripple = np.zeros((0, 3))
+    if np.any(per_env[:, 9:11] != 0):
+        ripple = np.ascontiguousarray(per_env[:, 9:12])
+    simulate_steps(
+        z,
+        stuck,
+        pending,
+        U,
+        T,
+        n_sub,
+        packed.mat_T,
+        packed.mat_h,
+        packed.cont,
+        packed.nl,
+        packed.pidx,
+        applied,
+        dist,
+        ripple,
+        xs,
+        vs,
+    )
     xs = xs.transpose(1, 2, 0).reshape(S, 2 * envs_per_set, H)[:, :W]
     vs = vs.transpose(1, 2, 0).reshape(S, 2 * envs_per_set, H)[:, :W]
     # the start velocity of a moving window is an estimate (a smoothed derivative of the
@@ -223,13 +215,9 @@ def simulate_windows(thetas, ua: np.ndarray, win: _Windows, T: float):
     # is fitted per window and removed (variable projection), so that it does not leak into
     # the parameters (a lag, above all)
     phi = base.mat_T[:, 0, :, :3]  # (S, 3, 3)
-    e = np.zeros((S, 3))
-    e[:, 1] = 1.0
     gx = np.empty((S, H))
     gv = np.empty((S, H))
-    for j in range(H):
-        e = np.einsum("sij,sj->si", phi, e)
-        gx[:, j], gv[:, j] = e[:, 0], e[:, 1]
+    start_velocity_response(np.ascontiguousarray(phi), gx, gv)
     g_bd = np.diff(gx, axis=1, prepend=0.0) / T
     g = np.concatenate([gx / win.sp, g_bd / win.sv], axis=1)  # (S, 2H)
     r = np.concatenate(

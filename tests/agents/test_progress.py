@@ -174,7 +174,10 @@ def test_a_preset_fills_what_was_not_given_and_options_override_it():
 
 
 def test_the_ppo_preset_trains_end_to_end(tmp_path, gcode):
+    # the preset's 256 envs, PPO, batch and epochs over one rollout of 16 steps per env (its
+    # 64 would only repeat the same path four times over)
     preset = {k: v for k, v in PRESETS["ppo-256"].items() if k != "timesteps"}
+    preset["ppo_n_steps"] = 16
     kw = {**TINY, **preset, "timesteps": preset["n_envs"] * preset["ppo_n_steps"]}
     kw["batch_size"] = preset["batch_size"]
     cfg = TrainConfig(gcode=(gcode,), **kw)

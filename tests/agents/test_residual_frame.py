@@ -21,6 +21,11 @@ from contour_env import ENV_ID
 from contour_env.evaluation import evaluate, run_episode
 
 SHORT = "G21 G90 G17 G61\nG01 X2 F1200\nG01 Y2\n"
+# a blended 3-D part with arcs off the axes for the 0.1 ms linear motor (~9k servo periods)
+LM_PART = (
+    "G21 G90 G17 G64 P0.01\nG01 X0 Y0 Z0 F3000\nG01 X8 Y3\nG02 X12 Y7 R4\n"
+    "G01 X10 Y12 Z1\nG03 X4 Y10 R4\nG01 X0 Y0 Z0\n"
+)
 # a blended five-leg part, no leg along an axis (mm, before rotation)
 PART_MM = np.array([[0, 0], [100, 30], [140, 110], [50, 130], [20, 70]], dtype=float)
 ANGLES_DEG = (0.0, 30.0, 60.0)
@@ -256,7 +261,7 @@ def test_rotation_a_path_frame_agent_is_the_same_on_a_rotated_part_without_axis_
     [
         ("friction-table", "star_exact_stop.nc", "path", True),
         ("friction-table", SHORT, "axes", False),
-        ("linear-motor", "gear_profile.ngc", "path", False),
+        ("linear-motor", LM_PART, "path", False),
     ],
 )
 def test_compiled_agent_episode_equals_the_python_loop_to_the_bit(plant, path, frame, gate):
@@ -313,7 +318,8 @@ def test_compiled_agent_with_fade_at_rest_equals_the_python_loop():
 @pytest.mark.parametrize(
     "case_kw, frame, observe_axes",
     [
-        (dict(case="lm-circle3d"), "path", True),
+        # lm-circle3d at 5x its feed: the case's 3-D circle in 32k servo periods (159k at 1x)
+        (dict(case="lm-circle3d", feedrate_m_s=0.25), "path", True),
         (dict(case="jee-circle3d"), "axes", True),
         (dict(plant="friction-table", path=SHORT), "path", False),
     ],
