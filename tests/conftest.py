@@ -84,3 +84,24 @@ def once_per_run(tmp_path_factory, key: str, compute):
 def shared(tmp_path_factory):
     """``shared(KEY, compute)``: :func:`once_per_run` for this run."""
     return lambda key, compute: once_per_run(tmp_path_factory, key, compute)
+
+
+# the full tier: tests that train, fit, or run long episodes, CLI commands or scripts end to end
+# (about 1 s or more each, listed in tests/full_tier.txt by module or module::function); the
+# default run (CI, the README's test command) runs them, the unit tier leaves them out:
+#     pytest -m "not slow and not full" -n 2
+FULL_TIER = Path(__file__).with_name("full_tier.txt")
+
+
+def full_tier_entries() -> set:
+    lines = FULL_TIER.read_text(encoding="utf-8").splitlines()
+    return {s.strip() for s in lines if s.strip() and not s.startswith("#")}
+
+
+def pytest_collection_modifyitems(config, items):
+    entries = full_tier_entries()
+    for item in items:
+        module = item.nodeid.split("::")[0]
+        function = getattr(item, "originalname", None) or item.name
+        if module in entries or f"{module}::{function}" in entries:
+            item.add_marker(pytest.mark.full)
