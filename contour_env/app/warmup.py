@@ -26,7 +26,7 @@ import numpy as np
 # the parts, each a function compiling a group of kernels by running them briefly; in each
 # stage the longest first (the residual runner alone compiles for about 3 minutes on 2 cores:
 # started last, the stage would wait on it with one process idle)
-STAGES = (("plant", "five-axis"), ("residual", "batch", "env-parallel", "env", "controllers"))
+STAGES = (("plant", "five-axis"), ("residual", "batch", "controllers", "env-parallel", "env"))
 
 
 def _plant() -> None:
