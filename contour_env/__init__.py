@@ -20,6 +20,10 @@ ENV_ID = "contour_env/Contouring-v0"
 # (Lee 2012 case II); resolved in contour_env.cases.build_setup
 DEFAULT_CASE = "hsm2-circle-II"
 
+# the five-axis machine (Chen 2022) as an id of its own; Contouring-v0 with plant="five-axis"
+# is the same env (contour_env.env.five_axis_family)
+FIVE_AXIS_ENV_ID = "contour_env/FiveAxis-v0"
+
 if ENV_ID not in registry:
     register(
         id=ENV_ID,
@@ -27,6 +31,13 @@ if ENV_ID not in registry:
         vector_entry_point="contour_env.env.vector_env:ContouringVectorEnv",
         disable_env_checker=False,
     )
+if FIVE_AXIS_ENV_ID not in registry:
+    register(
+        id=FIVE_AXIS_ENV_ID,
+        entry_point="contour_env.env.five_axis_family:make_five_axis_env",
+        vector_entry_point="contour_env.env.five_axis_family:FiveAxisVectorEnv",
+        disable_env_checker=False,
+    )
 
 __version__ = "0.1.0"
-__all__ = ["DEFAULT_CASE", "ENV_ID", "__version__"]
+__all__ = ["DEFAULT_CASE", "ENV_ID", "FIVE_AXIS_ENV_ID", "__version__"]
