@@ -24,20 +24,20 @@ DEFAULT_CASE = "hsm2-circle-II"
 # is the same env (contour_env.env.five_axis_family)
 FIVE_AXIS_ENV_ID = "contour_env/FiveAxis-v0"
 
-if ENV_ID not in registry:
-    register(
-        id=ENV_ID,
-        entry_point="contour_env.env.contouring_env:make_contouring_env",
-        vector_entry_point="contour_env.env.vector_env:ContouringVectorEnv",
-        disable_env_checker=False,
-    )
-if FIVE_AXIS_ENV_ID not in registry:
-    register(
-        id=FIVE_AXIS_ENV_ID,
-        entry_point="contour_env.env.five_axis_family:make_five_axis_env",
-        vector_entry_point="contour_env.env.five_axis_family:FiveAxisVectorEnv",
-        disable_env_checker=False,
-    )
+# id: (entry point, vector entry point), both in contour_env.env
+ENTRY_POINTS = {
+    ENV_ID: ("contouring_env:make_contouring_env", "vector_env:ContouringVectorEnv"),
+    FIVE_AXIS_ENV_ID: ("five_axis_family:make_five_axis_env", "five_axis_family:FiveAxisVectorEnv"),
+}
+for _id, (_single, _vector) in ENTRY_POINTS.items():
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point=f"contour_env.env.{_single}",
+            vector_entry_point=f"contour_env.env.{_vector}",
+            disable_env_checker=False,
+        )
+del _id, _single, _vector
 
 __version__ = "0.1.0"
 __all__ = ["DEFAULT_CASE", "ENV_ID", "FIVE_AXIS_ENV_ID", "__version__"]

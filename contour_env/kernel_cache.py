@@ -82,12 +82,7 @@ STAMP = PACKAGE / "__pycache__" / "kernel_sources.sha256"
 
 
 def _versions() -> bytes:
-    try:
-        from importlib.metadata import version
-
-        numba_version = version("numba")
-    except Exception:  # noqa: BLE001 - a missing distribution record: the digest still works
-        numba_version = "?"
+    numba_version = ".".join(map(str, _numba_version(parts=3))) or "?"
     return f"numba {numba_version} python {sys.version_info[:3]}".encode()
 
 
@@ -175,16 +170,17 @@ def _numba_locators():
     return DigestCacheLocator
 
 
+_PRUNED: set = set()
+
+
 def _prune(folder: Path) -> None:
-    """Keep the newest KEEP_DIGESTS digest folders of the group ``folder`` belongs to."""
+    """Keep the newest KEEP_DIGESTS digest folders of the group ``folder`` belongs to (once
+    per group and process)."""
     root = cache_root()
-    try:
-        group_dir = next(p for p in [folder, *folder.parents] if p.parent == root)
-    except StopIteration:
+    group_dir = next((p for p in [folder, *folder.parents] if p.parent == root), None)
+    if group_dir is None or group_dir in _PRUNED:
         return
-    if getattr(_prune, "done", set()) and group_dir in _prune.done:
-        return
-    _prune.done = getattr(_prune, "done", set()) | {group_dir}
+    _PRUNED.add(group_dir)
     group = group_dir.name.split("-", 1)[0]
     try:
         dirs = sorted(root.glob(f"{group}-*"), key=lambda p: p.stat().st_mtime, reverse=True)
@@ -204,11 +200,12 @@ _NUMBA_DEFAULT = "InTreeCacheLocator,UserWideCacheLocator,IPythonCacheLocator,Zi
 MIN_NUMBA = (0, 68)
 
 
-def _numba_version() -> tuple[int, ...]:
+def _numba_version(parts: int = 2) -> tuple[int, ...]:
+    """The installed numba's version, its first ``parts`` numbers; (0, 0) when unreadable."""
     try:
         from importlib.metadata import version
 
-        return tuple(int(x) for x in version("numba").split(".")[:2])
+        return tuple(int(x) for x in version("numba").split(".")[:parts])
     except Exception:  # noqa: BLE001 - no distribution record, or a local version string
         return (0, 0)
 
