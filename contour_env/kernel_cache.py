@@ -22,9 +22,9 @@ second clone of the same commit finds the first one's kernels. Only the newest
 :data:`KEEP_DIGESTS` folders of each group are kept. The folder is chosen by numba's public
 locator hook (``numba.core.config.CACHE_LOCATOR_CLASSES``, the ``NUMBA_CACHE_LOCATOR_CLASSES``
 variable, numba ≥ 0.68) ahead of numba's own locators; when the user set ``NUMBA_CACHE_DIR``
-or ``NUMBA_CACHE_LOCATOR_CLASSES`` themselves, when the root is not writable, or on an older
-numba, numba's default applies and :func:`refresh_stale_caches` drops in-tree caches made from
-other sources instead.
+or ``NUMBA_CACHE_LOCATOR_CLASSES`` themselves, when the root is not writable (checked on
+import), or on an older numba, numba's default applies and :func:`refresh_stale_caches` drops
+in-tree caches made from other sources instead.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import hashlib
 import os
 import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
@@ -210,6 +211,15 @@ def _numba_version(parts: int = 2) -> tuple[int, ...]:
         return (0, 0)
 
 
+def _writable(root: Path) -> bool:
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=root).close()
+        return True
+    except OSError:
+        return False
+
+
 def locator_setting() -> str:
     """The value of ``NUMBA_CACHE_LOCATOR_CLASSES`` that puts the digest locator first."""
     return f"{LOCATOR},{_NUMBA_DEFAULT}"
@@ -224,6 +234,8 @@ def install_locator() -> bool:
         return False
     if os.environ.get("NUMBA_CACHE_LOCATOR_CLASSES", mine) != mine:
         return False
+    if not _writable(cache_root()):
+        return False  # numba's own folders, and the in-tree invalidation with them
     os.environ["NUMBA_CACHE_LOCATOR_CLASSES"] = mine
     numba_config = sys.modules.get("numba.core.config")
     if numba_config is not None:  # numba read the variable already: set what it read

@@ -178,3 +178,16 @@ def test_no_locator_when_the_user_chose_numbas(monkeypatch):
     monkeypatch.setenv("NUMBA_CACHE_LOCATOR_CLASSES", "InTreeCacheLocator")
     assert kernel_cache.install_locator() is False
     assert os.environ["NUMBA_CACHE_LOCATOR_CLASSES"] == "InTreeCacheLocator"
+
+
+def test_an_unwritable_cache_root_keeps_numbas_folders_and_their_invalidation(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    env["CONTOUR_ENV_KERNEL_CACHE"] = str(blocker / "kernels")
+    code = (
+        "import contour_env, os\n"
+        "from contour_env import kernel_cache as k\n"
+        "print(os.environ.get('NUMBA_CACHE_LOCATOR_CLASSES'), k.locator_installed())"
+    )
+    assert _run(code, kernel_cache.PACKAGE.parent, env) == "None False"
