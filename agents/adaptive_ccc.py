@@ -328,44 +328,18 @@ class AdaptiveCCCController(Controller):
             C = C + np.sign(curvature)[:, None, None] * (self.kv_rho[:, None] * J)
         return C, FRFt
 
-    def _regressor(self, signals) -> np.ndarray:
-        """φ (B, columns, A): ẍ_d, ẋ_d (, sgn ẋ_d) per axis — F Y_d θ = Σ_j φ_j θ_j."""
-        acc, vel = signals["reference_acceleration"], signals["reference_velocity"]
-        cols = [acc, vel] + ([np.sign(vel)] if self.friction else [])
-        return np.stack(cols, axis=1)
-
     def act(self, signals: dict) -> np.ndarray:
-        n = self.n_axes
-        E = signals["reference_position"] - signals["measured_position"]
-        # the measured velocity is a backward difference, (x_k − x_{k−1}) / T, i.e. the
-        # velocity half a period ago: compare it with the reference's at the same instant
-        # (ẋ_d − ẍ_d T/2), or the D term adds k ẍ_d T/2 (ω T of the inertial force) that r
-        # cannot see (a steady radial error on a circle even with a perfect model)
-        ref_vel = signals["reference_velocity"]
-        if self.velocity_match:
-            ref_vel = ref_vel - 0.5 * self.servo_period_s * signals["reference_acceleration"]
-        Ed = ref_vel - signals["measured_velocity"]
-        v = signals["feedrate"]
-        C, FRFt = self._coupling_matrix(
-            signals["frame"], signals["curvature"], signals["torsion"], v
-        )
-        B = E.shape[0]
-        # F r = Ė + α E + v F R Fᵀ E (eq. 20 in the inertial frame)
-        Fr = Ed + self.alpha * E + v[:, None] * np.einsum("bij,bj->bi", FRFt, E)
-        th = self.theta_hat[:B].reshape(B, self.n_columns, n)  # a view
-        phi = self._regressor(signals)
-        feedforward = np.einsum("bja,bja->ba", phi, th)  # F Y_d θ̂ = M̂ ẍ_d + B̂ ẋ_d (+ F̂_c sgn)
-        T = self.k * (Ed + self.alpha * E) + np.einsum("bij,bj->bi", C, E) + E + feedforward
-        # θ̂̇ = Γ Y_dᵀ r = Γ φ F r per axis (eq. 26), one servo period
-        if np.any(self.Gamma):
-            step = self.servo_period_s * Fr
-            if self.normalize:
-                ms = np.asarray(self.mean_squares)[None, :, None]
-                psi2 = np.sum(phi**2 / ms, axis=1)
-                step = step / np.maximum(1.0, psi2 / self.n_columns)
-            th += self.Gamma.reshape(self.n_columns, n) * phi * step[:, None, :]
-            np.maximum(th, 0.0, out=th)
-        return T
+        """Eqs. 20, 26 and 38 (see the class docstring): the compiled law ``adaptive-ccc``
+        (:func:`agents.compiled.laws.law`, the one definition the fused loops run too);
+        θ̂ advances in ``theta_hat``.
+
+        The measured velocity is a backward difference, (x_k − x_{k−1}) / T, i.e. the velocity
+        half a period ago; with ``velocity_match`` it is compared with the reference's at the
+        same instant (ẋ_d − ẍ_d T/2), or the D term adds k ẍ_d T/2 (ω T of the inertial force)
+        that r cannot see (a steady radial error on a circle even with a perfect model)."""
+        from .compiled.forms import run_law
+
+        return run_law(self, "adaptive-ccc", signals)
 
     def loop_gains(self, frame, curvature=0.0, torsion=0.0, feedrate_m_s=0.0):
         """Eq. 38 without the feedforward (θ̂ frozen):

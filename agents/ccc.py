@@ -144,65 +144,24 @@ class CCCController(PDController):
             self._started[mask] = False
             self._holding[mask] = False
 
-    def _corner_hold(self, signals: dict) -> np.ndarray:
-        """(B,) bool: the tool has not reached the segment the reference is on yet.
-
-        Koren's estimate refers to the reference point's frame. Where that frame jumps (an
-        exact-stop corner: the tangent turns by more than ``CORNER_TURN_RAD`` in one sample),
-        a tool still on the previous segment is not off the path, but the estimate reads its
-        lag along the old tangent as normal error and the compensator — its integral above all
-        — would push it off the path. From the jump until the tool passes the corner (the
-        reference where the frame jumped) along the new tangent, the coupling holds: the
-        integral restarts at zero and no correction is applied; the axial PD brings the tool
-        round the corner. Past means on the new segment's side of the corner's bisector,
-        (x − c)·(t_old + t_new) ≥ 0 (a near-reversal holds nothing: the tool stays on the line).
-        """
-        t = signals["frame"][:, :, 0]
-        B = t.shape[0]
-        prev_t, corner, holding = self._tangent[:B], self._corner[:B], self._holding[:B]
-        bisector = self._bisector[:B]
-        cos_turn = np.sum(prev_t * t, axis=1)
-        # a reversal (turn near 180°) keeps the tool on the same line: nothing to hold
-        jump = self._started[:B] & (cos_turn < np.cos(CORNER_TURN_RAD)) & (cos_turn > -0.9)
-        corner[jump] = signals["reference_position"][jump]
-        bisector[jump] = (prev_t + t)[jump]
-        holding |= jump
-        # past the corner: on the new segment's side of the bisector of the two segments
-        past = np.sum(bisector * (signals["measured_position"] - corner), axis=1) >= 0.0
-        holding &= ~past
-        prev_t[:] = t
-        return holding
-
     def act(self, signals: dict) -> np.ndarray:
-        u = super().act(signals)
-        eps_n, eps_b = contour_error_estimate(signals)
-        T = self.servo_period_s
-        B = eps_n.shape[0]
-        F = signals["frame"]
-        prev = self._prev[:B]
-        started = self._started[:B]
-        J = self._integral[:B]
-        hold = self._corner_hold(signals)
-        if hold.any():
-            J[hold] = 0.0
-            eps_n = np.where(hold, 0.0, eps_n)
-            eps_b = None if eps_b is None else np.where(hold, 0.0, eps_b)
-        directions = [(F[:, :, 1], eps_n, 0)]
-        if eps_b is not None:
-            directions.append((F[:, :, 2], eps_b, 1))
-        # the integral's components on the current normal (and binormal)
-        comps = [np.sum(J * d, axis=1) + eps * T for d, eps, _ in directions]
-        limit = float(np.min(self.force_limit / self.mass)) / max(self.W_i, 1e-300)
-        comps = [np.clip(c, -limit, limit) for c in comps]
-        J[:] = 0.0
-        for (d, eps, slot), integ in zip(directions, comps, strict=True):
-            de = np.where(started, (eps - prev[:, slot]) / T, 0.0)
-            c = self.W_p * eps + self.W_i * integ + self.W_d * de
-            u = u - self.mass * c[:, None] * d
-            prev[:, slot] = eps
-            J += integ[:, None] * d
-        started[:] = True
-        return u
+        """PD plus the coupling of the class docstring, with the corner hold: the compiled law
+        ``ccc`` (:func:`agents.compiled.laws.law`, the one definition the fused loops run
+        too).
+
+        The corner hold: Koren's estimate refers to the reference point's frame. Where that
+        frame jumps (an exact-stop corner: the tangent turns by more than ``CORNER_TURN_RAD``
+        in one sample), a tool still on the previous segment is not off the path, but the
+        estimate reads its lag along the old tangent as normal error and the compensator — its
+        integral above all — would push it off the path. From the jump until the tool passes
+        the corner (the reference where the frame jumped) along the new tangent, the coupling
+        holds: the integral restarts at zero and no correction is applied; the axial PD brings
+        the tool round the corner. Past means on the new segment's side of the corner's
+        bisector, (x − c)·(t_old + t_new) ≥ 0 (a near-reversal, cos turn ≤ −0.9, holds
+        nothing: the tool stays on the line)."""
+        from .compiled.forms import run_law
+
+        return run_law(self, "ccc", signals)
 
     def loop_gains(self, frame, curvature=0.0, torsion=0.0, feedrate_m_s=0.0):
         """PD plus the linearised coupling: ε̂_n = −n·E (the κ|E|²/2 term is second order), so

@@ -79,17 +79,11 @@ class JeeCCCController(Controller):
             self._started[mask] = False
 
     def act(self, signals: dict) -> np.ndarray:
-        E = signals["reference_position"] - signals["measured_position"]
-        t = signals["frame"][:, :, 0]
-        eps = E - np.sum(t * E, axis=1, keepdims=True) * t
-        B = E.shape[0]
-        T = self.servo_period_s
-        self._sum[:B] += eps * T
-        started = self._started[:B, None]
-        d_eps = np.where(started, (eps - self._prev[:B]) / T, 0.0)
-        self._prev[:B] = eps
-        self._started[:B] = True
-        return self.K_P * E + self.C_P * eps + self.C_I * self._sum[:B] + self.C_D * d_eps
+        """Eqs. 11–12 (see the class docstring): the compiled law ``jee-ccc``
+        (:func:`agents.compiled.laws.law`, the one definition the fused loops run too)."""
+        from .compiled.forms import run_law
+
+        return run_law(self, "jee-ccc", signals)
 
     def loop_gains(self, frame, curvature=0.0, torsion=0.0, feedrate_m_s=0.0):
         """Eqs. 11–12 with ε = (I − t tᵀ) E: U = [K_P + G_C(z) (I − t tᵀ)] E (eq. 8 for G_C)."""

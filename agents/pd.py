@@ -128,9 +128,11 @@ class PDController(Controller):
         )
 
     def act(self, signals: dict) -> np.ndarray:
-        e = signals["reference_position"] - signals["measured_position"]
-        de = signals["reference_velocity"] - signals["measured_velocity"]
-        return self.P * e + self.D * de
+        """u = P e + D ė per axis, e = x_d − x: the compiled law ``pd``
+        (:func:`agents.compiled.laws.law`, the one definition the fused loops run too)."""
+        from .compiled.forms import run_law
+
+        return run_law(self, "pd", signals)
 
     def loop_gains(self, frame, curvature=0.0, torsion=0.0, feedrate_m_s=0.0):
         """u = P E + D (E_k − E_{k−1})/T (backward-difference velocity): diagonal, no frame."""

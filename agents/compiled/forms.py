@@ -186,6 +186,18 @@ def compiled_form(controller) -> CompiledForm | None:
     # a law patched on the instance (e.g. a traced ``act``) is not the compiled one
     if any(name in vars(controller) for name in _PATCHABLE):
         return None
+    kind, fp, st = _pack(controller, law)
+    return CompiledForm(
+        kind,
+        np.ascontiguousarray(fp),
+        np.ascontiguousarray(st, dtype=np.float64),
+        np.asarray(controller.force_limit, dtype=np.float64).copy(),
+        controller,
+    )
+
+
+def _pack(controller, law: str) -> tuple:
+    """(kind, gains fp, state st) of ``controller`` for the compiled law named ``law``."""
     B = controller.n_envs
     if law == "pd":
         kind, fp, st = L.KIND_PD, _pd_fp(controller), np.zeros((B, 1))
@@ -204,10 +216,64 @@ def compiled_form(controller) -> CompiledForm | None:
         kind, fp, st = L.KIND_RFNN, _rfnn_fp(controller), _rfnn_st(controller)
     else:
         raise ValueError(f"COMPILED_LAW {law!r}: no compiled law of that name")
-    return CompiledForm(
-        kind,
-        np.ascontiguousarray(fp),
-        np.ascontiguousarray(st, dtype=np.float64),
-        np.asarray(controller.force_limit, dtype=np.float64).copy(),
-        controller,
-    )
+    return kind, fp, st
+
+
+# what each law reads of the servo signals (besides the measured and reference position and
+# velocity, which every law reads)
+_NEEDS = {
+    L.KIND_PD: (),
+    L.KIND_CCC: ("frame", "curvature"),
+    L.KIND_ADAPTIVE_CCC: ("frame", "curvature", "torsion", "feedrate", "reference_acceleration"),
+    L.KIND_JEE_CCC: ("frame",),
+    L.KIND_RFNN: ("frame",),
+}
+_ALWAYS = ("measured_position", "measured_velocity", "reference_position", "reference_velocity")
+
+
+def signal_tables(signals: dict, n_axes: int, needs=()) -> tuple:
+    """Batched servo signals (leading axis B) as the tables :func:`.laws.act_rows` reads, row b
+    for env b: ``ax`` (AX_VEL + 1, B, A) with the measured position (m) and velocity (m/s) in
+    rows AX_MEAS and AX_VEL; ``ref_pav`` (B, 3, 3); ``frame`` (B, 3, 3); ``scal`` (B, 4).
+    Signals the law does not read may be missing (zeros); a missing one it reads is a
+    ``ValueError`` naming it."""
+    missing = [key for key in (*_ALWAYS, *needs) if key not in signals]
+    if missing:
+        raise ValueError(f"signals: missing {', '.join(missing)} (see EnvCore.signals_batch)")
+    A = n_axes
+    meas = np.asarray(signals["measured_position"], dtype=np.float64)
+    B = meas.shape[0]
+    ax = np.zeros((L.AX_VEL + 1, B, A))
+    ax[L.AX_MEAS] = meas
+    ax[L.AX_VEL] = signals["measured_velocity"]
+    ref_pav = np.zeros((B, 3, 3))
+    ref_pav[:, 0, :A] = signals["reference_position"]
+    ref_pav[:, 1, :A] = signals["reference_velocity"]
+    frame = np.zeros((B, 3, 3))
+    scal = np.zeros((B, 4))
+    if "reference_acceleration" in signals:
+        ref_pav[:, 2, :A] = signals["reference_acceleration"]
+    if "frame" in signals:
+        frame[:, :A, :A] = signals["frame"]
+    for col, key in ((0, "feedrate"), (2, "curvature"), (3, "torsion")):
+        if key in signals:
+            scal[:, col] = signals[key]
+    return ax, ref_pav, frame, scal
+
+
+def run_law(controller, law: str, signals: dict) -> np.ndarray:
+    """The command u (B, A) (plant units) of the compiled law ``law`` (``"pd"``, ``"ccc"``,
+    ``"adaptive-ccc"``, ``"jee-ccc"``) with ``controller``'s gains and state, for batched
+    ``signals`` (B ≤ the bound batch): the Python ``act`` of those controllers. The law is
+    :func:`.laws.law`, the one the fused loops run; the state it advanced is written back into
+    the controller's attributes."""
+    kind, fp, st = _pack(controller, law)
+    st = np.ascontiguousarray(st, dtype=np.float64)
+    ax, ref_pav, frame, scal = signal_tables(signals, controller.n_axes, _NEEDS[kind])
+    u = np.empty((ax.shape[1], controller.n_axes))
+    L.act_rows(
+        kind, float(controller.servo_period_s), ax, ref_pav, frame, scal,
+        np.ascontiguousarray(fp), st, u,
+    )  # fmt: skip
+    _STORE[kind](controller, st)
+    return u

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
+import numpy as np
 from numba import njit
 
 from contour_env.env.borrow import register_record
@@ -26,6 +27,8 @@ KIND_PD, KIND_CCC, KIND_ADAPTIVE_CCC, KIND_JEE_CCC, KIND_RFNN = 1, 2, 3, 4, 5
 # a law as the compiled loops receive it: its kind, gains fp, state st (one row per env) and
 # the controller's force limit per axis (N)
 CompiledLaw = register_record(namedtuple("CompiledLaw", "kind fp st flim"))
+# the scratch :func:`law` needs: ≥ 4 A + 2 A² floats (3 axes), and the adaptive regressor
+WORK_SIZE = 4 * 3 + 2 * 9 + 6
 
 # --- CCC: fp = [P (A), D (A), W_p, W_i, W_d, mass (A), limit, cos(CORNER_TURN_RAD)];
 # st = [prev (2), J (A), started, tangent (A), corner (A), bisector (A), holding]
@@ -87,7 +90,7 @@ def _ccc(A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, E):
             sb += frame[kk, i, 2] * E[i]
         eps_b = -sb
     started = st[b, s_started] != 0.0
-    # _corner_hold
+    # the corner hold (CCCController.act)
     ct = st[b, s_tan] * frame[kk, 0, 0]
     for i in range(1, A):
         ct += st[b, s_tan + i] * frame[kk, i, 0]
@@ -381,3 +384,22 @@ def law(kind, A, b, kk, T, ax, ref_pav, frame, scal, fp, st, u, work):
         _rfnn(A, b, kk, T, ax, ref_pav, frame, fp, st, u)
     else:
         _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E)
+
+
+@njit(cache=True)
+def act_rows(kind, T, ax, ref_pav, frame, scal, fp, st, u):
+    """The Python ``act`` of every controller with a compiled law runs here: :func:`law` for
+    each row b of a batch of servo signals (u (B, A) out, plant units), the signals of row b at
+    table index b: ``ax`` rows AX_MEAS and AX_VEL (measured position m and velocity m/s, each
+    (B, A)), ``ref_pav`` (B, 3, 3) [position, velocity, acceleration], ``frame`` (B, 3, 3)
+    columns [t n b], ``scal`` (B, 4) [feedrate m/s, -, curvature 1/m, torsion 1/m]. T: the servo
+    period (s); ``st`` rows 0..B−1 advanced. The fused loops (:mod:`.runner`,
+    :mod:`.residual_runner`) call the same :func:`law` on the env's own tables, so a law is
+    defined once (:func:`agents.compiled.forms.run_law` packs a controller for this)."""
+    B, A = u.shape
+    row = np.zeros(A)
+    work = np.zeros(WORK_SIZE)
+    for b in range(B):
+        law(kind, A, b, b, T, ax, ref_pav, frame, scal, fp, st, row, work)
+        for i in range(A):
+            u[b, i] = row[i]

@@ -20,9 +20,7 @@ from contour_env.env.borrow import borrowed
 from contour_env.env.kernel import I_NSTEPS, _step_one, borrowed_records, record_step
 from contour_env.env.layout import EpisodeTrace
 
-from .laws import CompiledLaw, law
-
-WORK_SIZE = 4 * 3 + 2 * 9 + 6
+from .laws import WORK_SIZE, CompiledLaw, law
 
 
 @njit(cache=True, inline="always")

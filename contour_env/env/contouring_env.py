@@ -7,8 +7,9 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from .core import EnvConfig, EnvCore, check_seed
+from .core import EnvConfig, check_seed
 from .factory import make_core
+from .protocol import Core
 
 
 class ContouringEnv(gym.Env):
@@ -175,7 +176,7 @@ class ContouringEnv(gym.Env):
                 f"render_mode: must be None or one of the env's render modes "
                 f"({', '.join(map(repr, modes))}), got {render_mode!r}"
             )
-        self.core: EnvCore = make_core(case, plant, path, n_envs=1, **kwargs)
+        self.core: Core = make_core(case, plant, path, n_envs=1, **kwargs)
         self.render_mode = render_mode
         n = self.core.dim
         self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)

@@ -730,7 +730,8 @@ class EnvCore:
 def core_of(env) -> tuple:
     """``(holder, core)`` of a contour_env env — single, wrapped (``env.unwrapped``) or
     vectorised: the object that holds the simulation core and the core (:class:`EnvCore` or
-    :class:`~contour_env.env.five_axis_core.FiveAxisCore`). ValueError for anything else."""
+    :class:`~contour_env.env.five_axis_core.FiveAxisCore`, both a
+    :class:`~contour_env.env.protocol.Core`). ValueError for anything else."""
     for candidate in (env, getattr(env, "unwrapped", None)):
         core = getattr(candidate, "core", None)
         if core is not None:

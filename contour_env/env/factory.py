@@ -9,6 +9,7 @@ import inspect
 from ..cases import FIVE_AXIS_ABORT_CONTOUR_M, build_setup, get_case
 from .core import EnvConfig, EnvCore, StepThreads, check_env_arguments
 from .five_axis_core import FiveAxisCore
+from .protocol import Core
 
 # the keywords that describe the setup (build_setup's); every other keyword is an EnvConfig one
 SETUP_KEYWORDS = tuple(
@@ -20,11 +21,12 @@ SETUP_KEYWORDS = tuple(
 
 def make_core(
     case=None, plant=None, path=None, *, n_envs=1, plant_params=None, num_threads=None, **kwargs
-) -> EnvCore | FiveAxisCore:
-    """The core of ``gym.make``'s env: the setup from ``case`` / ``plant`` / ``path`` and the
-    setup keywords (:data:`SETUP_KEYWORDS`, those of :func:`contour_env.cases.build_setup`),
-    the env configuration (:class:`~.core.EnvConfig`) from the others; ``num_threads``: the
-    step's thread policy (None / "auto": adaptive; see :class:`~.core.StepThreads`)."""
+) -> Core:
+    """The core of ``gym.make``'s env (a :class:`.protocol.Core`: both classes implement it):
+    the setup from ``case`` / ``plant`` / ``path`` and the setup keywords
+    (:data:`SETUP_KEYWORDS`, those of :func:`contour_env.cases.build_setup`), the env
+    configuration (:class:`~.core.EnvConfig`) from the others; ``num_threads``: the step's
+    thread policy (None / "auto": adaptive; see :class:`~.core.StepThreads`)."""
     config = {key: value for key, value in kwargs.items() if key not in SETUP_KEYWORDS}
     check_env_arguments(config)
     setup_kw = {key: value for key, value in kwargs.items() if key in SETUP_KEYWORDS}

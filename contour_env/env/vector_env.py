@@ -19,8 +19,9 @@ from gymnasium.error import ResetNeeded
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from .core import MAX_SEED, EnvCore, check_seed
+from .core import MAX_SEED, check_seed
 from .factory import make_core
+from .protocol import Core
 
 
 class ContouringVectorEnv(VectorEnv):
@@ -33,7 +34,7 @@ class ContouringVectorEnv(VectorEnv):
     ):
         if render_mode is not None:
             raise ValueError("render_mode: the vector env does not render; use the single env")
-        self.core: EnvCore = make_core(case, plant, path, n_envs=num_envs, **kwargs)
+        self.core: Core = make_core(case, plant, path, n_envs=num_envs, **kwargs)
         self.num_envs = self.core.n_envs
         n = self.core.dim
         self.single_action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)

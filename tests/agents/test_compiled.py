@@ -13,14 +13,17 @@ from contour_env import ENV_ID
 from contour_env.cases import case_names
 from contour_env.env import rollout
 from contour_env.evaluation import evaluate, run_episode
+from tests.agents import numpy_laws
 
 TOL = 1e-12
 LONG_CASE = "lm-circle3d"  # 159k steps: the full episode is run for pd only
 
 
 def _both(spec, seed=0, **env_kwargs):
+    """The fused compiled loop against the Python env path with the law's independent NumPy
+    reference (tests/agents/numpy_laws.py) on the controller."""
     env = gym.make(ENV_ID, **env_kwargs)
-    c_fast, c_py = make_controller(spec), make_controller(spec)
+    c_fast, c_py = make_controller(spec), numpy_laws.patch(make_controller(spec))
     fast = run_episode(env, c_fast, seed=seed)
     py = run_episode(env, c_py, seed=seed, compiled=False)
     return fast, py, c_fast, c_py
@@ -208,3 +211,51 @@ def test_a_step_patched_on_the_env_instance_takes_the_python_path():
     env.step = recording_step
     record = run_episode(env, make_controller("pd"), seed=0)
     assert len(calls) == len(record.contour_error) > 1000
+
+
+@pytest.mark.parametrize(
+    ("spec", "case"),
+    [("pd", "hsm2-circle-III"), ("ccc", "corner-blend"), ("adaptive-ccc", "hsm2-circle-I"),
+     ("jee-ccc", "jee-circle3d")],
+)  # fmt: skip
+def test_one_definition_of_each_law_serves_both_paths(spec, case, monkeypatch):
+    """The Python ``act`` runs the compiled law (:func:`agents.compiled.laws.act_rows` around
+    :func:`agents.compiled.laws.law`), the fused loop runs the same ``law``; both equal the
+    NumPy reference to the bit."""
+    import agents.compiled.forms as forms
+    from agents.compiled import laws, runner
+
+    calls = []
+    real = laws.act_rows
+
+    def spy(*args):
+        calls.append(args[0])
+        return real(*args)
+
+    monkeypatch.setattr(forms.L, "act_rows", spy)
+    env = gym.make(ENV_ID, case=case)
+    c = make_controller(spec)
+    py = run_episode(env, c, seed=3, compiled=False)
+    kind = forms.compiled_form(c).kind
+    assert len(calls) == py.time.size and set(calls) == {kind}
+    # the fused loop's law is the same compiled function
+    assert runner.law is laws.law
+    assert "law" in runner._run_single.py_func.__code__.co_names
+    fast = run_episode(env, make_controller(spec), seed=3)
+    ref = run_episode(env, numpy_laws.patch(make_controller(spec)), seed=3, compiled=False)
+    _assert_same(fast, py)
+    _assert_same(py, ref)
+    np.testing.assert_array_equal(py.contour_error, ref.contour_error)
+
+
+def test_the_law_refuses_signals_it_needs_and_lacks():
+    env = gym.make(ENV_ID, case="hsm2-circle-III")
+    env.reset(seed=0)
+    c = make_controller("adaptive-ccc").bind(env)
+    signals = env.unwrapped.core.signals_batch()
+    del signals["curvature"]
+    with pytest.raises(ValueError, match="signals: missing curvature"):
+        c.act(signals)
+    pd = make_controller("pd").bind(env)
+    minimal = {k: signals[k] for k in numpy_laws.PD_SIGNALS}
+    np.testing.assert_array_equal(pd.act(minimal), numpy_laws.pd(pd, minimal))
