@@ -6,7 +6,14 @@ The names below load on first use (PEP 562), so a light submodule such as
 
 from __future__ import annotations
 
-__all__ = ["CONTROLLERS", "Controller", "controller_names", "make_controller"]
+__all__ = [
+    "CONTROLLERS",
+    "Controller",
+    "ControllerSpec",
+    "controller_names",
+    "make_controller",
+    "parse_spec",
+]
 
 
 def __getattr__(name: str):
@@ -14,7 +21,13 @@ def __getattr__(name: str):
         from .base import Controller
 
         return Controller
-    if name in ("CONTROLLERS", "controller_names", "make_controller"):
+    if name in (
+        "CONTROLLERS",
+        "ControllerSpec",
+        "controller_names",
+        "make_controller",
+        "parse_spec",
+    ):
         from . import registry
 
         return getattr(registry, name)

@@ -16,6 +16,10 @@ import numpy as np
 
 from contour_env.env.core import core_of, signals_to_batch
 
+# the controllers of the five-axis plant (agents.registry.FIVE_AXIS_CONTROLLERS, which imports
+# this module): what a feed-drive controller bound to that plant is told to use instead
+FIVE_AXIS_NAMES = ("pd", "pid", "ismc")
+
 
 class Controller:
     """Base class. Subclasses implement :meth:`act` on batched signals (command in the plant's
@@ -27,7 +31,6 @@ class Controller:
     plant_family = None
 
     def __init__(self):
-        self._five_axis = None  # the five-axis controller this one forwards to (bind)
         self._core = None
         self._single = True
         self.nominal = None
@@ -38,21 +41,18 @@ class Controller:
         self.computation_delay_steps = 0
 
     def bind(self, env) -> Controller:
-        """Attach to an env and reset. The controller keeps the axis count it was first bound
-        with: binding it to an env with another number of axes is an error.
+        """Attach to an env and reset; returns this controller, of its own class. The
+        controller keeps the axis count it was first bound with: binding it to an env with
+        another number of axes is an error.
 
-        A feed-drive controller made by :func:`agents.make_controller` and bound to a
-        five-axis env binds the five-axis class of the same spec instead (``pd`` → Chen
-        2022's joint PD; a name without one, e.g. ``ccc``, is a ValueError) and forwards
-        :meth:`predict`, :meth:`command`, :meth:`action` and :meth:`reset` to it."""
+        A feed-drive controller (``plant_family`` None) bound to a five-axis env is a
+        ``ValueError`` naming the controller, the plant and the fix: build the five-axis class
+        with ``agents.make_controller(spec, env=env)`` (or ``plant_family='five-axis'``;
+        :data:`FIVE_AXIS_NAMES`)."""
         holder, core = core_of(env)
         family = getattr(core.setup, "family", None)
         if family == "five-axis" and self.plant_family != family:
-            self._five_axis = self._five_axis_counterpart().bind(env)
-            self._core, self._single = self._five_axis._core, self._five_axis._single
-            self.n_envs = self._five_axis.n_envs
-            return self
-        self._five_axis = None
+            raise ValueError(self._five_axis_refusal(core.setup.plant))
         self._attach(core.setup.plant, core.n_envs)
         self._core = core
         self._single = not hasattr(holder, "num_envs")
@@ -83,18 +83,26 @@ class Controller:
         # hardware its designer knows, not a plant uncertainty
         self.computation_delay_steps = int(plant.params.computation_delay)
 
-    def _five_axis_counterpart(self) -> Controller:
-        """The five-axis controller of the spec this one was made from: the factory
-        :func:`agents.make_controller` left on it (``_five_axis_factory``); ValueError for a
-        controller built directly."""
-        factory = getattr(self, "_five_axis_factory", None)
-        if factory is None:
-            raise ValueError(
-                f"controller {self.name!r} ({type(self).__name__}, built directly) is a "
-                "feed-drive controller; for the five-axis plant build it with "
-                f"agents.make_controller({self.name!r}, plant_family='five-axis')"
+    def _five_axis_refusal(self, plant) -> str:
+        """Why this feed-drive controller does not bind to the five-axis ``plant``, and the fix
+        (the spec it was made from by :func:`agents.make_controller`, else its name)."""
+        spec = getattr(getattr(self, "_spec", None), "label", self.name)
+        head = (
+            f"env: controller {spec!r} ({type(self).__name__}) is a feed-drive controller; the "
+            f"env has the five-axis plant {plant.name!r}"
+        )
+        names = ", ".join(FIVE_AXIS_NAMES)
+        if self.name not in FIVE_AXIS_NAMES:
+            return (
+                f"{head}, and {self.name!r} is not available on the five-axis plant (its "
+                f"controllers: {names}; build one with agents.make_controller(name, env=env) or "
+                "plant_family='five-axis')"
             )
-        return factory()
+        return (
+            f"{head}; build its five-axis controller with agents.make_controller({spec!r}, "
+            f"env=env) or agents.make_controller({spec!r}, plant_family='five-axis') (the "
+            f"five-axis controllers: {names})"
+        )
 
     def compiled_form(self):
         """The law as arrays for the compiled episode loop (:mod:`agents.compiled`), or None
@@ -109,8 +117,6 @@ class Controller:
 
     def reset(self, mask=None) -> None:
         """Start of an episode for the envs in ``mask`` (all if None)."""
-        if getattr(self, "_five_axis", None) is not None:
-            self._five_axis.reset(mask)
 
     def act(self, signals: dict) -> np.ndarray:
         """Command (B, A) from batched signals (see :meth:`EnvCore.signals_batch`)."""
@@ -137,21 +143,15 @@ class Controller:
     def command(self, signals: dict) -> np.ndarray:
         """The residual-base interface: command (B, A) in the plant's units for (single or
         batched) signals."""
-        if getattr(self, "_five_axis", None) is not None:
-            return self._five_axis.command(signals)
         return self.act(signals_to_batch(signals))
 
     def action(self, signals: dict) -> np.ndarray:
         """Env action (B, A): the command as a fraction of the force limit, clipped to [-1, 1]."""
-        if getattr(self, "_five_axis", None) is not None:
-            return self._five_axis.action(signals)
         u = np.asarray(self.command(signals), dtype=np.float64)
         return np.clip(u / self.force_limit, -1.0, 1.0).astype(np.float32)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         """stable-baselines3 signature; reads the bound env's servo signals."""
-        if getattr(self, "_five_axis", None) is not None:
-            return self._five_axis.predict(observation, state, episode_start, deterministic)
         if self._core is None:
             raise ValueError(f"controller {self.name!r}: call bind(env) before predict")
         if episode_start is not None:

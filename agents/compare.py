@@ -12,8 +12,8 @@ from contour_env.evaluation import run_episode
 from contour_env.metrics import check_metrics, format_um, score
 from contour_env.plants.randomize import randomized
 
-from .parameters import split_spec
-from .registry import CONTROLLERS, FIVE_AXIS_CONTROLLERS, make_controller
+from .parameters import ControllerSpec
+from .registry import make_controller, parse_spec
 
 CVAR_FRACTION = 0.10
 # the row name of a trained residual agent (``model``: a model DIR, or the shipped agent)
@@ -27,39 +27,32 @@ def comparable_names() -> list[str]:
     return [*all_controller_names(), RESIDUAL]
 
 
-def check_controllers(specs: list[str]) -> None:
-    """``ValueError`` for an unknown name, a malformed or unknown parameter, or a value the
-    controller's constructor refuses, in any of ``specs`` (names or variants such as
-    ``ccc:wp=3e4``) — before anything is run. ``residual`` takes no parameters."""
+def check_controllers(specs: list[str | ControllerSpec]) -> list[ControllerSpec]:
+    """The parsed records (:func:`agents.registry.parse_spec`) of ``specs`` (names or variants
+    such as ``ccc:wp=3e4``, or records), one each in order; ``ValueError`` for an unknown
+    name, a malformed or unknown parameter, or a value the controller's constructor refuses,
+    in any of them — before anything is run. ``residual`` takes no parameters."""
     if not specs:
         raise ValueError(f"controllers: none given; known: {', '.join(comparable_names())}")
-    for spec in specs:
-        name, pairs = split_spec(spec)
-        if name == RESIDUAL:
-            if pairs:
-                raise ValueError(
-                    f"controller {spec!r}: residual takes no parameters (its agent comes from "
-                    "--model DIR / model=)"
-                )
-            continue
-        if name not in CONTROLLERS and name not in FIVE_AXIS_CONTROLLERS:
-            raise ValueError(
-                f"controllers: unknown controller {name!r}; known: {', '.join(comparable_names())}"
-            )
-        make_controller(spec)
+    records = []
+    for text in specs:
+        spec = parse_spec(text, agent_names=(RESIDUAL,), parameter="controllers")
+        if spec.name != RESIDUAL:
+            make_controller(spec)  # the values its constructor refuses
+        records.append(spec)
+    return records
 
 
-def bound_controller(name: str, env, model=None):
-    """``name`` (a controller name or variant such as ``ccc:wp=3e4``) bound to ``env``;
-    ``residual`` is the agent in ``model`` (a model DIR written by ``contour-env train``) or,
-    without one, the shipped agent for the env's plant (``ValueError`` when there is none, or
-    when the agent was trained for another plant or number of axes)."""
-    check_controllers([name])
-    if name != RESIDUAL:
-        from contour_env.env.core import core_of
-
-        family = getattr(core_of(env)[1].setup, "family", None)
-        return make_controller(name, plant_family=family).bind(env)
+def bound_controller(name: str | ControllerSpec, env, model=None):
+    """``name`` (a controller name or variant such as ``ccc:wp=3e4``, or its parsed record)
+    bound to ``env``, the class of the env's plant family (``pd`` on the five-axis plant is
+    Chen 2022's joint PD); ``residual`` is the agent in ``model`` (a model DIR written by
+    ``contour-env train``) or, without one, the shipped agent for the env's plant
+    (``ValueError`` when there is none, or when the agent was trained for another plant or
+    number of axes)."""
+    spec = name if isinstance(name, ControllerSpec) else check_controllers([name])[0]
+    if spec.name != RESIDUAL:
+        return make_controller(spec, env=env).bind(env)
     from contour_env.env.core import core_of
 
     from .residual import ResidualAgent
@@ -89,7 +82,7 @@ def compare(
     Returns {"case": ..., "plant": ..., "results": [{"controller", "stable", metrics...}],
     "records": {name: EpisodeRecord}} (records are for plotting; not JSON).
     """
-    check_controllers(list(controllers))
+    specs = check_controllers(list(controllers))  # each string parsed here, once
     metrics = check_metrics(metrics)  # an unknown metric is an error before any run
     results, records = [], {}
     setup = None
@@ -99,13 +92,13 @@ def compare(
     # one env serves every fixed controller (each run resets it with the same seed; building
     # the env is a large part of a compiled run's time); a residual agent gets its own
     shared = None
-    for name in controllers:
-        if split_spec(name)[0] == RESIDUAL:
+    for spec in specs:
+        if spec.name == RESIDUAL:
             env = gym.make(ENV_ID, **env_kwargs)
         else:
             shared = shared or gym.make(ENV_ID, **env_kwargs)
             env = shared
-        bound.append((name, env, bound_controller(name, env, model)))
+        bound.append((spec.label, env, bound_controller(spec, env, model)))
     for name, env, controller in bound:
         setup = env.unwrapped.setup
         record = run_episode(env, controller, seed=seed)  # five-axis: with orientation error
@@ -164,11 +157,12 @@ def robustness(
     arrays, not JSON):
     ``{"time_s": (n,), "contour_error_m": (n, episodes)}``, ε after each step, NaN once a
     variation has stopped or where ε is not finite."""
-    check_controllers(list(controllers))
+    specs = check_controllers(list(controllers))  # each string parsed here, once
     probe = check_randomizable(**env_kwargs)
     variants = randomized(probe.plant.params, fraction, episodes, seed=seed)
     rows = []
-    for name in controllers:
+    for spec in specs:
+        name = spec.label
         venv = gym.make_vec(
             ENV_ID,
             num_envs=episodes,
@@ -176,7 +170,7 @@ def robustness(
             plant_params=variants,
             **env_kwargs,
         )
-        controller = bound_controller(name, venv, model)
+        controller = bound_controller(spec, venv, model)
         obs, _ = venv.reset(seed=seed)
         core = venv.core if hasattr(venv, "core") else venv.unwrapped.core
         n = core.n_steps - 1
@@ -284,7 +278,7 @@ def robustness_compiled_steps(spec: str, n_envs: int, **env_kwargs) -> tuple[int
         plant_params=variants,
         **env_kwargs,
     )
-    controller = make_controller(spec).bind(venv)
+    controller = make_controller(spec, env=venv).bind(venv)
     B = n_envs
     for timed in (False, True):
         venv.reset(seed=0)

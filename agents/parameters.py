@@ -22,6 +22,9 @@ classmethod) to turn parsed values into its constructor's keywords (``adaptive-c
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import NamedTuple
 
 # the value kinds of a parameter
@@ -54,9 +57,47 @@ class Param(NamedTuple):
         return text
 
 
+@dataclass(frozen=True)
+class ControllerSpec:
+    """A controller spec parsed once (:func:`agents.registry.parse_spec`, the one function that
+    reads the string); everything after the parse takes this record.
+
+    ``name``: the controller name (``"ccc"``). ``keywords``: the constructor keywords of the
+    spec's parameters (``{"W_p": 3e4}``, read-only), already checked against the class's
+    :attr:`PARAMETERS` table and its ``adapt_parameters``. ``label``: the string as the user
+    wrote it (a row's name in ``contour-env compare``, and what error messages quote).
+    ``family``: the plant family the class was resolved for (None: the feed-drive class of the
+    name, or its only class; ``"five-axis"``: :data:`agents.registry.FIVE_AXIS_CONTROLLERS`).
+    ``parameters``: the ``key=value`` pairs as typed, so the record can be resolved for another
+    plant family without reading the string again."""
+
+    name: str
+    keywords: Mapping[str, object] = field(default_factory=dict)
+    label: str = ""
+    family: str | None = None
+    parameters: tuple[tuple[str, str], ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "keywords", MappingProxyType(dict(self.keywords)))
+        object.__setattr__(self, "label", self.label or self.name)
+        object.__setattr__(self, "parameters", tuple(tuple(p) for p in self.parameters))
+
+    def __hash__(self):  # the keywords follow from name, family and parameters
+        return hash((self.name, self.label, self.family, self.parameters))
+
+    def __reduce__(self):  # a read-only mapping does not pickle; its dict does
+        return (
+            ControllerSpec,
+            (self.name, dict(self.keywords), self.label, self.family, self.parameters),
+        )
+
+
 def split_spec(spec: str) -> tuple[str, list[tuple[str, str]]]:
     """``"ccc:wp=3e4:wd=20"`` → ``("ccc", [("wp", "3e4"), ("wd", "20")])``; ``ValueError`` for
-    a malformed spec (empty name, empty part, a part without ``=``, a key given twice)."""
+    a malformed spec (empty name, empty part, a part without ``=``, a key given twice).
+
+    The tokenizer of :func:`agents.registry.parse_spec`, its only caller: code that needs a
+    spec's parts takes the :class:`ControllerSpec` that function returns."""
     if not isinstance(spec, str):
         raise ValueError(f"controller: expected a name such as 'ccc' or 'ccc:wp=3e4', got {spec!r}")
     name, *parts = [p.strip() for p in spec.split(":")]
@@ -160,6 +201,7 @@ def spec_kwargs(spec: str, cls, pairs: list[tuple[str, str]]) -> dict:
 __all__ = [
     "AXES",
     "BOOL",
+    "ControllerSpec",
     "FLOAT",
     "INT",
     "Param",

@@ -2,12 +2,14 @@
 
 ``make_controller("ccc:wp=3e4:wd=20")`` builds a CCC with W_p = 3·10⁴ 1/s² and W_d = 20 1/s:
 the parameters after the name are the short names of the class's ``PARAMETERS`` table
-(:mod:`agents.parameters`; ``contour-env controllers`` prints every table).
+(:mod:`agents.parameters`; ``contour-env controllers`` prints every table). The string is
+read once, by :func:`parse_spec`, into a :class:`~agents.parameters.ControllerSpec` that every
+function here and in :mod:`agents.compare` takes instead of the string.
 """
 
 from __future__ import annotations
 
-import functools
+import copy
 
 from contour_env.env.core import core_of
 
@@ -16,7 +18,7 @@ from .ccc import CCCController
 from .five_axis_controllers import FiveAxisPDController, FiveAxisPIDController, ISMCController
 from .ilc import ILCContourController, ILCPDController
 from .jee_ccc import JeeCCCController
-from .parameters import describe_parameters, spec_kwargs, split_spec
+from .parameters import ControllerSpec, describe_parameters, spec_kwargs, split_spec
 from .pd import PDController
 from .rfnn import FNNController, RFNNController
 from .vilcfd import VILCFDController
@@ -34,8 +36,9 @@ CONTROLLERS = {
 }
 
 # the five-axis plant's controllers, a family of their own: ``pd`` there is Chen 2022's joint
-# PD with the paper's gains (``make_controller(name, plant_family="five-axis")``, or the
-# feed-drive ``pd`` bound to a five-axis env); ``pid`` (the tuned joint PID baseline) and
+# PD with the paper's gains (``make_controller(name, plant_family="five-axis")`` or
+# ``make_controller(name, env=five_axis_env)``; the feed-drive ``pd`` bound to a five-axis
+# env is a ValueError naming that fix); ``pid`` (the tuned joint PID baseline) and
 # ``ismc`` exist only there (``make_controller("pid")`` builds it; binding it to a feed-drive
 # env is a ValueError naming the plant it needs). Kept apart from CONTROLLERS, whose every
 # entry runs on every feed-drive plant.
@@ -51,13 +54,14 @@ LEARNING_CONTROLLERS = ("ilc-pd", "ilc-contour", "vilcfd")
 KEEPING_CONTROLLERS = ("rfnn", "fnn")
 
 
-def learns_between_trials(spec: str) -> bool:
+def learns_between_trials(spec: str | ControllerSpec) -> bool:
     """Whether a repeated batch of ``spec`` improves from trial to trial: a learning controller
     (:data:`LEARNING_CONTROLLERS`), or an online learner that keeps its network across
-    episodes (``rfnn:keep=1``, ``fnn:keep=1``)."""
-    name, kwargs = parse_controller_spec(spec)
-    return name in LEARNING_CONTROLLERS or (
-        name in KEEPING_CONTROLLERS and bool(kwargs.get("keep", False))
+    episodes (``rfnn:keep=1``, ``fnn:keep=1``). ``spec``: a string or its
+    :class:`ControllerSpec` (:func:`parse_spec`)."""
+    spec = parse_spec(spec)
+    return spec.name in LEARNING_CONTROLLERS or (
+        spec.name in KEEPING_CONTROLLERS and bool(spec.keywords.get("keep", False))
     )
 
 
@@ -65,21 +69,72 @@ def controller_names() -> list[str]:
     return list(CONTROLLERS)
 
 
-def spec_name(spec: str) -> str:
+def spec_name(spec: str | ControllerSpec) -> str:
     """The controller name of a spec (``"ccc:wp=3e4"`` → ``"ccc"``); ``ValueError`` if the
-    spec is malformed."""
-    return split_spec(spec)[0]
+    spec is malformed or names no controller (:func:`parse_spec`)."""
+    return parse_spec(spec).name
 
 
-def parse_controller_spec(spec: str) -> tuple[str, dict]:
-    """``(name, constructor keywords)`` of a spec such as ``"ccc:wp=3e4:wd=20"``.
+def parse_controller_spec(spec: str | ControllerSpec) -> tuple[str, dict]:
+    """``(name, constructor keywords)`` of a spec such as ``"ccc:wp=3e4:wd=20"``
+    (:func:`parse_spec`'s record as a pair).
 
     ``ValueError`` for an unknown controller (the message lists the known ones), an unknown
     parameter (the message lists the controller's parameters with their descriptions) or a
     malformed one (``ccc:``, ``ccc:wp``, ``ccc:wp=abc``, ``ccc:wp=nan``)."""
-    name, pairs = split_spec(spec)
-    cls = _class_of(name)
-    return name, spec_kwargs(spec, cls, pairs)
+    spec = parse_spec(spec)
+    return spec.name, dict(spec.keywords)
+
+
+def parse_spec(
+    spec: str | ControllerSpec,
+    plant_family: str | None = None,
+    *,
+    agent_names: tuple[str, ...] = (),
+    parameter: str = "controller",
+) -> ControllerSpec:
+    """The one reader of a controller spec ``name[:key=value ...]`` (:mod:`agents.parameters`):
+    the :class:`ControllerSpec` every other function takes (``"ccc:wp=3e4"`` → name ``"ccc"``,
+    keywords ``{"W_p": 30000.0}``, label ``"ccc:wp=3e4"``).
+
+    ``plant_family``: None resolves the name among the feed-drive controllers, then the
+    five-axis-only ones (``pid``, ``ismc``); ``"five-axis"`` among
+    :data:`FIVE_AXIS_CONTROLLERS` (``pd`` is then Chen 2022's joint PD). A record is returned
+    unchanged when ``plant_family`` is None or its own; for another family it is resolved
+    again from its ``key=value`` pairs (the string is not read again). ``agent_names``: names
+    that are not controllers of this registry (``compare``'s ``residual``, a trained agent),
+    accepted without parameters (``keywords`` empty). ``parameter``: the name that starts an
+    unknown-controller error (``controllers`` for :func:`agents.compare.check_controllers`).
+
+    ``ValueError`` for a malformed spec, an unknown controller (the message lists the known
+    ones), a name the five-axis plant does not have, or an unknown or bad parameter (the
+    message lists the controller's parameters with their descriptions and units)."""
+    if isinstance(spec, ControllerSpec):
+        if plant_family is None or plant_family == spec.family:
+            return spec
+        name, pairs, label = spec.name, spec.parameters, spec.label
+    else:
+        name, pairs = split_spec(spec)
+        label = spec
+    if name in agent_names and name not in CONTROLLERS and name not in FIVE_AXIS_CONTROLLERS:
+        if pairs:
+            raise ValueError(
+                f"controller {label!r}: {name} takes no parameters (its agent comes from "
+                "--model DIR / model=)"
+            )
+        return ControllerSpec(name, {}, label, None, ())
+    if plant_family == "five-axis":
+        if name not in FIVE_AXIS_CONTROLLERS:
+            raise ValueError(
+                f"controller {name!r}: not available on the five-axis plant; known there: "
+                f"{', '.join(FIVE_AXIS_CONTROLLERS)}"
+            )
+    elif name not in CONTROLLERS and name not in FIVE_AXIS_CONTROLLERS:
+        known = [*all_controller_names(), *agent_names]
+        raise ValueError(f"{parameter}: unknown controller {name!r}; known: {', '.join(known)}")
+    family = "five-axis" if plant_family == "five-axis" else None
+    keywords = spec_kwargs(label, _class_for(name, family), list(pairs))
+    return ControllerSpec(name, keywords, label, family, tuple(pairs))
 
 
 def all_controller_names() -> list[str]:
@@ -94,6 +149,13 @@ def _class_of(name: str):
             f"controller: unknown controller {name!r}; known: {', '.join(all_controller_names())}"
         )
     return cls
+
+
+def _class_for(name: str, family: str | None):
+    """The class of ``name`` for the plant family a :class:`ControllerSpec` was resolved for."""
+    if family == "five-axis":
+        return FIVE_AXIS_CONTROLLERS[name]
+    return _class_of(name)
 
 
 def controller_parameters(name: str) -> dict:
@@ -129,18 +191,21 @@ def plant_family_of(env) -> str | None:
     return getattr(core_of(env)[1].setup, "family", None)
 
 
-def make_controller(name: str, *, plant_family: str | None = None, env=None, **kwargs):
+def make_controller(
+    name: str | ControllerSpec, *, plant_family: str | None = None, env=None, **kwargs
+):
     """A controller by name or variant spec (unbound; call ``.bind(env)``).
 
     ``make_controller("ccc:wp=3e4:wd=20")`` and ``make_controller("ccc", W_p=3e4, W_d=20)``
-    are the same controller; a keyword given both ways is a ``ValueError``.
+    are the same controller; a keyword given both ways is a ``ValueError``. ``name``: the
+    string, or the :class:`ControllerSpec` :func:`parse_spec` made of it (not read again).
     ``plant_family="five-axis"``: the five-axis class of the name
     (:data:`FIVE_AXIS_CONTROLLERS`: ``pd`` is then Chen 2022's joint PD); a name with none is
     a ``ValueError``. ``env``: take the family from that env (:func:`plant_family_of`).
 
-    A feed-drive controller built without the family and bound to a five-axis env still works:
-    :meth:`Controller.bind` builds the five-axis class of the same spec and forwards to it
-    (``make_controller("pd").bind(five_axis_env)`` runs Chen 2022's joint PD)."""
+    :meth:`Controller.bind` binds the class built here or refuses: a feed-drive controller
+    built without the family and bound to a five-axis env is a ``ValueError`` naming this
+    call with ``env=env`` as the fix."""
     if env is not None:
         family = plant_family_of(env)
         if plant_family is not None and plant_family != family:
@@ -148,16 +213,16 @@ def make_controller(name: str, *, plant_family: str | None = None, env=None, **k
                 f"plant_family: {plant_family!r} given, but the env's plant family is {family!r}"
             )
         plant_family = family
-    ctrl = _make(name, plant_family, kwargs)
-    ctrl._spec = (name, dict(kwargs))
-    # Controller.bind builds the five-axis class of this spec through it on a five-axis env
-    ctrl._five_axis_factory = functools.partial(five_axis_counterpart, ctrl)
+    spec = parse_spec(name, plant_family)
+    ctrl = _make(spec, kwargs)
+    ctrl._spec, ctrl._spec_kwargs = spec, dict(kwargs)  # five_axis_counterpart, bind's errors
     return ctrl
 
 
 def five_axis_counterpart(controller):
     """The five-axis controller (unbound) of the spec ``controller`` was built from by
-    :func:`make_controller`; ``ValueError`` where the name has none or the spec is unknown."""
+    :func:`make_controller` (its :class:`ControllerSpec` resolved for ``"five-axis"``);
+    ``ValueError`` where the name has none or the controller was built directly."""
     name = controller.name
     if name not in FIVE_AXIS_CONTROLLERS:
         raise ValueError(
@@ -171,36 +236,21 @@ def five_axis_counterpart(controller):
             "controller; for the five-axis plant build it with "
             f"agents.make_controller({name!r}, plant_family='five-axis')"
         )
-    spec_text, kwargs = spec
-    return make_controller(spec_text, plant_family="five-axis", **kwargs)
+    kwargs = getattr(controller, "_spec_kwargs", {})
+    return make_controller(spec, plant_family="five-axis", **kwargs)
 
 
-def _make(name: str, plant_family, kwargs):
-    if plant_family == "five-axis":
-        base, _ = split_spec(name)
-        if base not in FIVE_AXIS_CONTROLLERS:
-            raise ValueError(
-                f"controller {base!r}: not available on the five-axis plant; known there: "
-                f"{', '.join(FIVE_AXIS_CONTROLLERS)}"
-            )
-        cls = FIVE_AXIS_CONTROLLERS[base]
-        spec_kw = spec_kwargs(name, cls, split_spec(name)[1])
-        both = sorted(set(spec_kw) & set(kwargs))
-        if both:
-            raise ValueError(
-                f"controller {name!r}: {', '.join(both)} given both in the spec and as a keyword"
-            )
-        return cls(**spec_kw, **kwargs)
-    base, spec_kw = parse_controller_spec(name)
-    both = sorted(set(spec_kw) & set(kwargs))
+def _make(spec: ControllerSpec, kwargs: dict):
+    """The controller of a parsed ``spec`` with the extra constructor ``kwargs``."""
+    both = sorted(set(spec.keywords) & set(kwargs))
     if both:
         raise ValueError(
-            f"controller {name!r}: {', '.join(both)} given both in the spec and as a keyword"
+            f"controller {spec.label!r}: {', '.join(both)} given both in the spec and as a keyword"
         )
-    cls = _class_of(base)
-    if not spec_kw:
+    cls = _class_for(spec.name, spec.family)
+    if not spec.keywords:
         return cls(**kwargs)
-    try:
-        return cls(**spec_kw, **kwargs)
+    try:  # fresh copies: a per-axis list of the record is not handed to the controller
+        return cls(**copy.deepcopy(dict(spec.keywords)), **kwargs)
     except ValueError as exc:
-        raise ValueError(f"controller {name!r}: {exc}") from None
+        raise ValueError(f"controller {spec.label!r}: {exc}") from None

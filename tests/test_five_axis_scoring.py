@@ -1,7 +1,8 @@
 """Controller resolution and scoring on the five-axis env (issue 16): every way a user names a
-controller (``make_controller(name).bind(env)``, ``make_controller(name, env=env)``, the
-command line's ``run``) gets the five-axis law, and every scoring path (``evaluate``,
-``run_episode``, ``compare``) reports the same metrics, orientation error included."""
+controller with the env's family (``make_controller(name, env=env)``, ``plant_family=``, the
+command line's ``run``) gets the five-axis law (``make_controller(name).bind(env)`` refuses,
+naming that fix, issue 52), and every scoring path (``evaluate``, ``run_episode``,
+``compare``) reports the same metrics, orientation error included."""
 
 from __future__ import annotations
 
@@ -35,33 +36,48 @@ def test_make_controller_takes_the_family_from_the_env(env):
         make_controller("pd", plant_family="five-axis", env=gym.make(ENV_ID, case="sharp-corner"))
 
 
-def test_feed_drive_pd_bound_to_the_five_axis_env_runs_the_joint_pd(env):
+def test_feed_drive_pd_bound_to_the_five_axis_env_is_refused_naming_the_fix(env):
+    # issue 52: bind returns the class it was given, or refuses (no silent swap)
     spec = "pd:p=600:d=50"
-    plain = make_controller(spec).bind(env)  # the feed-drive PD: forwards to the five-axis one
-    assert isinstance(plain._five_axis, FiveAxisPDController)
-    five = make_controller(spec, plant_family="five-axis").bind(env)
-    np.testing.assert_array_equal(plain._five_axis.Kp, five.Kp)
-    obs, _ = env.reset(seed=0)
-    a1, _ = plain.predict(obs, episode_start=np.ones(1, bool))
-    a2, _ = five.predict(obs, episode_start=np.ones(1, bool))
-    assert a1.shape == (5,) and np.array_equal(a1, a2)
-    np.testing.assert_array_equal(
-        plain.command(env.unwrapped.signals()), five.command(env.unwrapped.signals())
-    )
-    # rebinding to a feed-drive env drops the forwarding
-    plain.bind(gym.make(ENV_ID, case="sharp-corner"))
-    assert plain._five_axis is None
-    with pytest.raises(ValueError, match="not available on the five-axis plant"):
+    plain = make_controller(spec)  # no env, no family: the feed-drive PD
+    with pytest.raises(ValueError) as info:
+        plain.bind(env)
+    msg = str(info.value)
+    for words in (
+        f"controller {spec!r} (PDController) is a feed-drive controller",
+        "five-axis plant 'five-axis'",
+        f"agents.make_controller({spec!r}, env=env)",
+        "plant_family='five-axis'",
+        "pd, pid, ismc",
+    ):
+        assert words in msg, (words, msg)
+    assert plain._core is None  # nothing bound
+    # the fix the message names: the five-axis class of the same spec
+    five = make_controller(spec, env=env).bind(env)
+    assert type(five) is FiveAxisPDController
+    np.testing.assert_array_equal(five.Kp, 600.0)
+    np.testing.assert_array_equal(five.Kd, 50.0)
+    assert type(make_controller(spec, plant_family="five-axis").bind(env)) is FiveAxisPDController
+    # the refused controller still binds to a feed-drive env, as itself
+    assert type(plain.bind(gym.make(ENV_ID, case="sharp-corner"))) is PDController
+    with pytest.raises(ValueError, match="'ccc' is not available on the five-axis plant"):
         make_controller("ccc").bind(env)
     with pytest.raises(ValueError, match="plant_family='five-axis'"):
-        PDController().bind(env)  # built directly: no spec to rebuild from
+        PDController().bind(env)  # built directly: named by its name
+
+
+def test_the_refusal_lists_the_registry_s_five_axis_controllers():
+    from agents.base import FIVE_AXIS_NAMES
+    from agents.registry import FIVE_AXIS_CONTROLLERS
+
+    assert set(FIVE_AXIS_NAMES) == set(FIVE_AXIS_CONTROLLERS)
 
 
 def test_every_scoring_path_reports_the_orientation_error(env):
     result = compare(["pd", "ismc"], case="five-axis-line", ideal=True)
     for name in ("pd", "ismc"):
         row = next(r for r in result["results"] if r["controller"] == name)
-        m = evaluate(env, make_controller(name))
+        m = evaluate(env, make_controller(name, env=env))
         assert m["rms_orientation_error_arcsec"] > 0
         for key in ("rms_contour_error_um", "max_contour_error_um", "rms_orientation_error_arcsec"):
             assert m[key] == pytest.approx(row[key], rel=1e-12)

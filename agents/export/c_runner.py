@@ -86,7 +86,7 @@ class CLawController:
         from agents.residual import path_axes_mask
 
         self.core = env.unwrapped.core
-        self.base = make_controller(self.base_spec).bind(env)
+        self.base = make_controller(self.base_spec, env=env).bind(env)  # the env's family
         self.mask = path_axes_mask(self.core)
         self.law.reset()
         return self

@@ -38,9 +38,12 @@ def controller_factories(names, model=None) -> dict:
     ``contour-env compare`` binds it (:func:`agents.compare.bound_controller`; ``residual``:
     the agent in ``model`` DIR or the shipped one for the plant). Each label is the name as
     typed."""
-    from agents.compare import bound_controller
+    from agents.compare import bound_controller, check_controllers
 
-    return {name: (lambda env, name=name: bound_controller(name, env, model)) for name in names}
+    specs = check_controllers(list(names)) if names else []  # each name parsed once, here
+    return {
+        spec.label: (lambda env, spec=spec: bound_controller(spec, env, model)) for spec in specs
+    }
 
 
 def circular_test(

@@ -228,7 +228,12 @@ def cmd_ilc(args) -> int:
     import gymnasium as gym
 
     from agents import make_controller
-    from agents.registry import KEEPING_CONTROLLERS, LEARNING_CONTROLLERS, learns_between_trials
+    from agents.registry import (
+        KEEPING_CONTROLLERS,
+        LEARNING_CONTROLLERS,
+        learns_between_trials,
+        parse_spec,
+    )
     from agents.repeated_batch import run_batch
 
     from .. import ENV_ID
@@ -236,14 +241,15 @@ def cmd_ilc(args) -> int:
     from ..metrics import format_um, resolution_fields
     from ..plotting import plot_learning
 
-    if not learns_between_trials(args.controller):
+    spec = parse_spec(args.controller)  # read once; the calls below take the record
+    if not learns_between_trials(spec):
         raise ValueError(
             f"--controller: {args.controller!r} does not learn between trials; learning "
             f"controllers: {', '.join(LEARNING_CONTROLLERS)}, or "
             f"{' / '.join(f'{n}:keep=1' for n in KEEPING_CONTROLLERS)} (the network kept "
             "across trials)"
         )
-    if (args.save or args.load) and not hasattr(make_controller(args.controller), "save"):
+    if (args.save or args.load) and not hasattr(make_controller(spec), "save"):
         raise ValueError(
             f"--save/--load: {args.controller!r} has no saved learning state (it keeps its "
             "network within one run of contour-env ilc)"
@@ -256,7 +262,7 @@ def cmd_ilc(args) -> int:
     if args.disturbance_phase:
         kw["disturbance_phase"] = args.disturbance_phase
     env = gym.make(ENV_ID, **kw)
-    controller = make_controller(args.controller, env=env)
+    controller = make_controller(spec, env=env)
     if args.load:
         controller.load_state(args.load)
     controller.bind(env)
