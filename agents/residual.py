@@ -68,13 +68,11 @@ from .registry import FIVE_AXIS_CONTROLLERS, controller_names, make_controller, 
 from .residual_law import (
     REST_FADE_FEED_FRACTION,
     action_size,
-    axis_observation,
     check_flag,
     check_frame,
     path_weights,
     residual_command,
     rest_fade,
-    to_path_frame,
 )
 
 DEFAULT_SCALE = 0.05
@@ -224,10 +222,6 @@ def _obs_space(w) -> spaces.Box:
     return spaces.Box(-clip, clip, (dim,), dtype=np.float32)
 
 
-def _select(obs: np.ndarray, fields) -> np.ndarray:
-    return obs if fields is None else obs[..., fields]
-
-
 class AgentView:
     """What the agent sees, built from the env observation and the servo signals of the same
     sample (batched): the selected env fields (in the path frame, the previous-action fields
@@ -246,19 +240,35 @@ class AgentView:
         self.clip = float(core.config.obs_clip)
 
     def __call__(self, obs, signals, base_action) -> np.ndarray:
-        x = _select(np.asarray(obs, dtype=np.float32), self.fields)
-        if self.rotate_prev:
-            x = x.copy()
-            n = self.n
-            x[:, -n:] = to_path_frame(x[:, -n:], signals["frame"])
-        if not (self.observe_axes or self.observe_base_command):
-            return x
-        parts = [x]
+        """(B, size) float32 for the env observations ``obs`` (B, O), the batched servo
+        signals and the base's action (B, n) (read only with ``observe_base_command``). The
+        view is :func:`agents.compiled.residual_runner.view_rows`, the definition the compiled
+        episode loops run too."""
+        from .compiled.forms import signal_tables
+        from .compiled.residual_runner import view_rows
+
+        obs = np.ascontiguousarray(obs, dtype=np.float32)
+        if obs.ndim != 2:
+            raise ValueError(f"obs: expected (B, obs_dim), got shape {obs.shape}")
+        needs = ("frame",) if self.rotate_prev else ()
         if self.observe_axes:
-            parts.append(axis_observation(signals, self.feed, self.acc, self.clip))
-        if self.observe_base_command:
-            parts.append(np.asarray(base_action, dtype=np.float32))
-        return np.concatenate(parts, axis=1).astype(np.float32)
+            needs += ("reference_acceleration",)
+        _, ref_pav, frame, _ = signal_tables(signals, self.n, needs)
+        n_fields = obs.shape[1] if self.fields is None else len(self.fields)
+        size = n_fields + (2 * self.n if self.observe_axes else 0)
+        x = np.empty((obs.shape[0], size), dtype=np.float32)
+        view_rows(
+            self.n, obs, ref_pav, frame, self._field_index(obs.shape[1]), self.rotate_prev,
+            self.observe_axes, self.feed, self.acc, self.clip, x,
+        )  # fmt: skip
+        if not self.observe_base_command:
+            return x
+        return np.concatenate([x, np.asarray(base_action, dtype=np.float32)], axis=1)
+
+    def _field_index(self, n_obs: int) -> np.ndarray:
+        if self.fields is None:
+            return np.arange(n_obs, dtype=np.int64)
+        return np.ascontiguousarray(self.fields, dtype=np.int64)
 
 
 def _agent_action(action, shape, what="action") -> np.ndarray:

@@ -134,16 +134,3 @@ def residual_command(
     if fade is not None:
         r = r * fade[:, None]
     return r, g
-
-
-def axis_observation(signals: dict, feed_scale: float, acc_scale: float, clip: float):
-    """(B, 2n) float32: per axis ẋ_d,i / feed_scale, then ẍ_d,i / acc_scale, clipped."""
-    v = np.asarray(signals["reference_velocity"], dtype=np.float64) / feed_scale
-    acc = np.asarray(signals["reference_acceleration"], dtype=np.float64) / acc_scale
-    out = np.concatenate([v, acc], axis=-1)
-    return np.clip(out, -clip, clip).astype(np.float32)
-
-
-def to_path_frame(values, frame):
-    """Fᵀ x per env: (B, n) machine-axis values into the task frame (B, n)."""
-    return np.einsum("bij,bi->bj", frame, np.asarray(values, dtype=np.float64))

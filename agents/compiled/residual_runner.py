@@ -222,28 +222,14 @@ def replay_residual_table(
             return m, 0, 1 if out.terminated[0] else 0
 
 
-@njit(cache=True)
-def agent_input(
-    A, obs, k, n_steps, ref_pav, frame, fields, rotate_prev, observe_axes, feed, acc_scale,
-    clip, mean, den, clip_obs, out,
-):  # fmt: skip
-    """Env 0's normalised agent observation into ``out`` (1, obs_dim) float32: what
-    ``agent.norm(agent._view(obs, signals, None))`` computes in NumPy, the same operations in
-    the same order (:class:`agents.residual.AgentView`, :class:`agents.rl.checkpoint.
-    ObsNormalizer`): the selected env fields (``fields``: their indices), the last n rotated
-    into the path frame (Fᵀ x, summed over the axes in order, in float64, stored as float32),
-    the axis observation (reference velocity / feed, acceleration / ``acc_scale``, clipped,
-    float32; ``A`` axes), then (x − mean) / ``den`` clipped to ±``clip_obs`` and stored as float32
-    (``den`` = sqrt(var + ε), computed once). ``tests/agents/test_residual.py`` checks it
-    against the NumPy path to the bit."""
-    n_steps_m1 = n_steps - 1
-    kk = k[0] if k[0] < n_steps_m1 else n_steps_m1
+@njit(cache=True, inline="always")
+def _view_row(A, b, kk, obs, ref_pav, frame, fields, rotate_prev, observe_axes, feed, acc_scale,
+              clip, x, v):  # fmt: skip
+    # the agent's raw observation of env b (table row kk) into x (float32); returns its length
     m = fields.shape[0]
-    x = out[0]
     for i in range(m):
-        x[i] = obs[0, fields[i]]
+        x[i] = obs[b, fields[i]]
     if rotate_prev:
-        v = np.empty(A)
         for i in range(A):
             v[i] = np.float64(x[m - A + i])
         for j in range(A):
@@ -260,9 +246,43 @@ def agent_input(
             y = ref_pav[kk, 2, i] / acc_scale
             x[o + A + i] = np.float32(min(max(y, -clip), clip))
         o += 2 * A
+    return o
+
+
+@njit(cache=True)
+def agent_input(
+    A, obs, k, n_steps, ref_pav, frame, fields, rotate_prev, observe_axes, feed, acc_scale,
+    clip, mean, den, clip_obs, out,
+):  # fmt: skip
+    """Env 0's normalised agent observation into ``out`` (1, obs_dim) float32: the agent's
+    view (:func:`view_rows`' row, the one definition of it) at the env's reference index, then
+    (x − mean) / ``den`` clipped to ±``clip_obs`` and stored as float32 (``den`` = sqrt(var +
+    ε), computed once), as :class:`agents.rl.checkpoint.ObsNormalizer` computes it.
+    ``tests/agents/test_residual_frame.py`` checks it against the Python path to the bit."""
+    n_steps_m1 = n_steps - 1
+    kk = k[0] if k[0] < n_steps_m1 else n_steps_m1
+    x = out[0]
+    o = _view_row(A, 0, kk, obs, ref_pav, frame, fields, rotate_prev, observe_axes, feed,
+                  acc_scale, clip, x, np.empty(A))  # fmt: skip
     for i in range(o):
         y = (np.float64(x[i]) - mean[i]) / den[i]
         x[i] = np.float32(min(max(y, -clip_obs), clip_obs))
+
+
+@njit(cache=True)
+def view_rows(A, obs, ref_pav, frame, fields, rotate_prev, observe_axes, feed, acc_scale, clip,
+              out):  # fmt: skip
+    """What a residual agent sees, for every env b of a batch, into ``out`` (B, size) float32
+    (:class:`agents.residual.AgentView` runs this; the compiled episode loops run the same row
+    through :func:`agent_input`): the selected env fields of ``obs`` (``fields``: their
+    indices), the last A rotated into the path frame when ``rotate_prev`` (Fᵀ x, summed over
+    the axes in order, in float64, stored as float32), then with ``observe_axes`` the axis
+    observation (reference velocity / ``feed`` m/s, acceleration / ``acc_scale`` m/s², each
+    clipped to ±``clip``). Row b reads ``ref_pav`` (B, 3, 3) and ``frame`` (B, 3, 3) at b."""
+    v = np.empty(A)
+    for b in range(out.shape[0]):
+        _view_row(A, b, b, obs, ref_pav, frame, fields, rotate_prev, observe_axes, feed,
+                  acc_scale, clip, out[b], v)  # fmt: skip
 
 
 class ResidualForm:

@@ -15,7 +15,7 @@ import torch
 import contour_env  # noqa: F401
 from agents.registry import make_controller
 from agents.residual import ResidualAgent, ResidualVectorWrapper, ResidualWrapper
-from agents.residual_law import axis_observation, residual_command
+from agents.residual_law import residual_command
 from agents.rl.checkpoint import ObsNormalizer
 from contour_env import ENV_ID
 from contour_env.evaluation import evaluate, run_episode
@@ -104,13 +104,16 @@ def test_gate_multiplies_the_residual_and_starts_closed_at_zero():
 
 
 def test_axis_observation_is_the_reference_velocity_and_acceleration_per_axis():
-    sig = {
-        "reference_velocity": np.array([[0.01, -0.02]]),
-        "reference_acceleration": np.array([[0.5, -100.0]]),
-    }
-    obs = axis_observation(sig, feed_scale=0.02, acc_scale=0.5, clip=10.0)
-    np.testing.assert_allclose(obs, [[0.5, -1.0, 1.0, -10.0]], rtol=1e-6)
-    assert obs.dtype == np.float32
+    from agents.compiled.residual_runner import view_rows
+
+    ref_pav = np.zeros((1, 3, 3))
+    ref_pav[0, 1, :2] = [0.01, -0.02]  # m/s
+    ref_pav[0, 2, :2] = [0.5, -100.0]  # m/s²
+    out = np.full((1, 4), np.nan, dtype=np.float32)
+    no_fields = np.zeros(0, dtype=np.int64)
+    obs = np.zeros((1, 1), dtype=np.float32)
+    view_rows(2, obs, ref_pav, np.zeros((1, 3, 3)), no_fields, False, True, 0.02, 0.5, 10.0, out)
+    np.testing.assert_allclose(out, [[0.5, -1.0, 1.0, -10.0]], rtol=1e-6)
 
 
 # --- wrappers and agent ---------------------------------------------------------------------
