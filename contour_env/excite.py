@@ -385,11 +385,7 @@ def simulate_program(
             T,
             p.friction_substeps,
             p.computation_delay,
-            packed.mat_T,
-            packed.mat_h,
-            packed.cont,
-            packed.nl,
-            packed.pidx,
+            *packed,
             applied,
             w_extra,
         )

@@ -221,20 +221,29 @@ def _pack(controller, law: str) -> tuple:
 
 # what each law reads of the servo signals (besides the measured and reference position and
 # velocity, which every law reads)
+_VELOCITIES = ("measured_velocity", "reference_velocity")
 _NEEDS = {
-    L.KIND_PD: (),
-    L.KIND_CCC: ("frame", "curvature"),
-    L.KIND_ADAPTIVE_CCC: ("frame", "curvature", "torsion", "feedrate", "reference_acceleration"),
-    L.KIND_JEE_CCC: ("frame",),
-    L.KIND_RFNN: ("frame",),
+    L.KIND_PD: _VELOCITIES,
+    L.KIND_CCC: (*_VELOCITIES, "frame", "curvature"),
+    L.KIND_ADAPTIVE_CCC: (
+        *_VELOCITIES,
+        "frame",
+        "curvature",
+        "torsion",
+        "feedrate",
+        "reference_acceleration",
+    ),
+    L.KIND_JEE_CCC: ("frame",),  # eqs. 11-12: positions only
+    L.KIND_RFNN: (*_VELOCITIES, "frame"),
 }
-_ALWAYS = ("measured_position", "measured_velocity", "reference_position", "reference_velocity")
+_ALWAYS = ("measured_position", "reference_position")
 
 
 def signal_tables(signals: dict, n_axes: int, needs=()) -> tuple:
     """Batched servo signals (leading axis B) as the tables :func:`.laws.act_rows` reads, row b
     for env b: ``ax`` (AX_VEL + 1, B, A) with the measured position (m) and velocity (m/s) in
-    rows AX_MEAS and AX_VEL; ``ref_pav`` (B, 3, 3); ``frame`` (B, 3, 3); ``scal`` (B, 4).
+    rows AX_MEAS and AX_VEL; ``ref_pav`` (B, 3, W); ``frame`` (B, W, W) with W = max(A, 3);
+    ``scal`` (B, 4).
     Signals the law does not read may be missing (zeros); a missing one it reads is a
     ``ValueError`` naming it."""
     missing = [key for key in (*_ALWAYS, *needs) if key not in signals]
@@ -243,13 +252,16 @@ def signal_tables(signals: dict, n_axes: int, needs=()) -> tuple:
     A = n_axes
     meas = np.asarray(signals["measured_position"], dtype=np.float64)
     B = meas.shape[0]
+    W = max(A, 3)  # the laws read 3 columns of a 2-axis frame; a view of 5 joints reads 5
     ax = np.zeros((L.AX_VEL + 1, B, A))
     ax[L.AX_MEAS] = meas
-    ax[L.AX_VEL] = signals["measured_velocity"]
-    ref_pav = np.zeros((B, 3, 3))
+    ref_pav = np.zeros((B, 3, W))
     ref_pav[:, 0, :A] = signals["reference_position"]
-    ref_pav[:, 1, :A] = signals["reference_velocity"]
-    frame = np.zeros((B, 3, 3))
+    if "measured_velocity" in signals:
+        ax[L.AX_VEL] = signals["measured_velocity"]
+    if "reference_velocity" in signals:
+        ref_pav[:, 1, :A] = signals["reference_velocity"]
+    frame = np.zeros((B, W, W))
     scal = np.zeros((B, 4))
     if "reference_acceleration" in signals:
         ref_pav[:, 2, :A] = signals["reference_acceleration"]

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from contour_env.env.borrow import borrowed
-from contour_env.env.kernel import I_NSTEPS, _step_one, record_step
+from contour_env.env.kernel import I_NSTEPS, record_step, step_one
 from contour_env.env.layout import EpisodeTrace
 
 from .laws import law
@@ -120,9 +120,9 @@ def _run_residual_chunk(
                 x = 1.0
             action[b, i] = x
         if A == 2:
-            _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
         else:
-            _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
         record_step(n, b, A, T, n_steps, state, path, trace)
         sums[0] += out.reward[b]
         sums[1] += pen

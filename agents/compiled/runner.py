@@ -1,7 +1,7 @@
 """The fused episode loops: per servo period and env, the controller law
 (:func:`agents.compiled.laws.law`), the env action (the command as a float32 fraction of the
 controller's force limit, as ``Controller.action``) and the kernel's per-env step
-(:func:`contour_env.env.kernel._step_one`), in one compiled loop.
+(:func:`contour_env.env.kernel.step_one`), in one compiled loop.
 
 They live here, next to the laws, rather than in :mod:`contour_env.env.rollout` (which holds
 the env side: recording, eligibility, the EpisodeRecord) because a numba function that takes
@@ -17,8 +17,13 @@ import numpy as np
 from numba import njit, prange
 
 from contour_env.env.borrow import borrowed
-from contour_env.env.kernel import I_NSTEPS, _step_one, borrowed_records, record_step
-from contour_env.env.layout import EpisodeTrace
+from contour_env.env.kernel import (
+    I_NSTEPS,
+    borrow_trace,
+    borrowed_records,
+    record_step,
+    step_one,
+)
 
 from .laws import WORK_SIZE, CompiledLaw, law
 
@@ -49,7 +54,7 @@ def borrowed_inputs(law_arrays, cfg, icfg, state, path, plant, scal, action, out
     law_arrays = CompiledLaw(
         law_arrays.kind, B(law_arrays.fp), B(law_arrays.st), B(law_arrays.flim)
     )
-    trace = EpisodeTrace(B(trace.time), B(trace.eps), B(trace.pos), B(trace.ref), B(trace.force))
+    trace = borrow_trace(trace)
     info = (B(info[0]), B(info[1]), B(info[2]), B(info[3]))
     return law_arrays, B(cfg), B(icfg), state, path, plant, B(scal), B(action), out, info, trace
 
@@ -85,9 +90,9 @@ def _run_single(law_arrays, cfg, icfg, state, path, plant, scal, action, out, in
         if not _action(A, b, u, flim, action):
             return n, 1
         if A == 2:
-            _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
         else:
-            _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
+            step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
         record_step(n, b, A, T, n_steps, state, path, trace)
         if out.terminated[b] or out.truncated[b]:
             return n + 1, 0
@@ -125,9 +130,9 @@ def run_batch(
                 bad[b] = 1
                 break
             if A == 2:
-                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+                step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
             else:
-                _step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
+                step_one(A, b, cfg, icfg, state, z2, path, plant, action, out, info)
             e = eps[b]
             if not math.isfinite(e):
                 e = math.inf

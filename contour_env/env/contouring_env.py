@@ -114,12 +114,24 @@ class ContouringEnv(gym.Env):
 
     ## Info (every step, physical units)
 
-    ``time`` (s), ``step``, ``position`` (true, m, path frame), ``measured_position`` (m),
-    ``velocity`` (m/s), ``reference`` (m), ``contour_error`` (true ε, m),
-    ``contour_error_estimate`` (Fᵀ(x_d − x): tangential, normal(, binormal), m),
-    ``tracking_error`` (x_d − x, m), ``force`` (applied command after delay and saturation, N),
-    ``saturated`` (per axis bool), ``termination_reason`` (None while running, then
-    ``"contour_error_limit"``, ``"tracking_error_limit"`` or ``"non_finite_state"``).
+    | key | unit | shape | meaning |
+    |---|---|---|---|
+    | `time` | s | scalar | k · T |
+    | `step` | samples | scalar | reference index k |
+    | `position` | m | (n,) | true position |
+    | `measured_position` | m | (n,) | encoder reading |
+    | `velocity` | m/s | (n,) | true velocity |
+    | `reference` | m | (n,) | reference position x_d |
+    | `contour_error` | m | scalar | true contour error ε |
+    | `contour_error_estimate` | m | (n,) | Fᵀ(x_d − x): tangential, normal (, binormal) |
+    | `tracking_error` | m | (n,) | x_d − x |
+    | `force` | N | (n,) | applied command after delay and saturation |
+    | `saturated` | flag | (n,) | the force at its limit |
+    | `termination_reason` | – | scalar | None while running, then the guard's reason |
+
+    The guard's reason is ``"contour_error_limit"``, ``"tracking_error_limit"`` or
+    ``"non_finite_state"`` (see Episode End). The vector env's info has the same keys, each
+    with a leading batch axis (``termination_reason``: ``""`` while an env runs).
 
     ## Arguments
 

@@ -20,12 +20,16 @@ from ..plants.discretize import state_size
 from ..plants.params import check_param_ranges, one_params_per_env
 from . import kernel as K
 from .layout import (
+    CFG_FIELDS,
+    ICFG_FIELDS,
+    INFO_KEYS,
     REASON_BY_STATUS,
     TERMINATION_REASONS,
     EnvState,
     PathArrays,
     PlantArrays,
     StepOutputs,
+    obs_dim,
     zero_outputs,
 )
 
@@ -314,11 +318,13 @@ class EnvCore:
         K.observation_table(
             cfg, preview, self.ref_pav, self.frame, self.scal, self.n_steps, self.dim, self.obs_tab
         )
-        self.icfg = np.array(
-            [self.n_steps, plant.params.friction_substeps, int(plant.params.computation_delay)],
-            dtype=np.int64,
-        )
-        self.obs_dim = 3 * self.dim + 3 + len(preview) * self.dim
+        icfg = {
+            "NSTEPS": self.n_steps,
+            "NSUB": plant.params.friction_substeps,
+            "DELAY": int(plant.params.computation_delay),
+        }
+        self.icfg = np.array([icfg[f.name] for f in ICFG_FIELDS], dtype=np.int64)
+        self.obs_dim = obs_dim(self.dim, len(preview))
         B, A = self.n_envs, self.dim
         ns = plant.initial_state(np.zeros((1, A))).z.shape[2]
         self.z = np.zeros((B, A, ns))
@@ -356,74 +362,34 @@ class EnvCore:
         )
         # the step's thread policy (see StepThreads; results are identical either way)
         self.threads = StepThreads(None, B)
-        # the arrays every kernel call starts with, in the kernel's order (fixed for the core's
-        # life: the arrays are written in place, never replaced)
-        p = self.packed
-        self._kernel_arrays = (
-            self.cfg, self.icfg, self.obs_tab, self.z, self.ax, self.k, self.eps, self.est,
-            self.status, self.seed, self.ref_pav, self.frame, self.seg_type, self.seg_data,
-            self.seg_bounds, p.mat_T, p.mat_h, p.cont, p.nl, p.pidx,
-        )  # fmt: skip
+        # the records every kernel call takes (fixed for the core's life: the arrays are
+        # written in place, never replaced)
+        self._records = self.kernel_records()
+        # their arrays flat, as the entry points take them (layout.ENTRY_RECORDS)
+        self._flat = tuple(a for record in self._records for a in record)
 
     def _pack_config(self, config: EnvConfig, setup: Setup, preview: np.ndarray) -> np.ndarray:
-        """The kernel's float configuration ``cfg`` (slots: contour_env.env.layout): scales,
-        reward weights, guards, noise; the reciprocals the step multiplies by; the preview's
+        """The kernel's float configuration ``cfg``: the slots declared in
+        :data:`contour_env.env.layout.CFG_FIELDS` (scales, reward weights, guards, noise; the
+        reciprocals the step multiplies by), each from its declared value, then the preview's
         scales after slot CFG_SIZE."""
         cfg = np.zeros(K.CFG_SIZE + len(preview))
-        cfg[K.C_T] = self.T
-        cfg[K.C_ERR_SCALE] = config.error_obs_scale_m
-        cfg[K.C_VERR_SCALE] = config.velocity_error_obs_scale_m_s
-        cfg[K.C_FEED_SCALE] = setup.feedrate_m_s
-        cfg[K.C_ACC_SCALE] = setup.max_accel_m_s2
-        cfg[K.C_CURV_SCALE] = config.curvature_obs_scale_m
-        cfg[K.C_W_CONTOUR] = config.w_contour
-        cfg[K.C_W_LAG] = config.w_lag
-        cfg[K.C_W_EFFORT] = config.w_effort
-        cfg[K.C_EPS_SCALE] = config.contour_error_scale_m
-        cfg[K.C_ABORT] = config.abort_contour_error_m
-        cfg[K.C_NOISE_STD] = config.measurement_noise_std_m
-        cfg[K.C_DIST_AMP] = config.disturbance_force_N
-        cfg[K.C_OBS_CLIP] = config.obs_clip
-        cfg[K.C_DIST_PHASE_RANDOM] = 1.0 if config.disturbance_phase == "random" else 0.0
-        cfg[K.C_ABORT_TRACK2] = config.abort_tracking_error_m**2
-        cfg[K.C_GUARD_PENALTY] = config.guard_penalty
-        for slot, value in (
-            (K.C_INV_T, self.T),
-            (K.C_INV_ERR, config.error_obs_scale_m),
-            (K.C_INV_VERR, config.velocity_error_obs_scale_m_s),
-            (K.C_INV_FEED, setup.feedrate_m_s),
-            (K.C_INV_ACC, setup.max_accel_m_s2),
-            (K.C_INV_EPS, config.contour_error_scale_m),
-            (K.C_INV_AXES, self.dim),
-        ):
-            cfg[slot] = 1.0 / value
+        for slot, field in enumerate(CFG_FIELDS):
+            cfg[slot] = field.value(config, setup, self.T, self.dim)
         cfg[K.CFG_SIZE :] = 1.0 / (setup.feedrate_m_s * preview * self.T)
         return cfg
 
     # --- the kernel's arrays, as records (contour_env.env.layout) ---------------------------
     def kernel_records(self) -> tuple:
         """``(EnvState, PathArrays, PlantArrays)`` of this core: its arrays as the compiled
-        step's stages take them (the arrays themselves, not copies)."""
-        p = self.packed
-        return (
-            EnvState(
-                self.z, self.ax, self.k, self.eps, self.est, self.status, self.seed, self.scratch
-            ),
-            PathArrays(
-                self.ref_pav,
-                self.frame,
-                self.obs_tab,
-                self.seg_type,
-                self.seg_data,
-                self.seg_bounds,
-            ),  # fmt: skip
-            PlantArrays(p.mat_T, p.mat_h, p.cont, p.nl, p.pidx),
-        )
+        step's stages take them (the arrays themselves, not copies; each record's fields are
+        the core's attributes of the same names, the plant's those of ``packed``)."""
+        return _record(EnvState, self), _record(PathArrays, self), _record(PlantArrays, self.packed)
 
     def step_outputs(self) -> StepOutputs:
         """The arrays the next step writes its outputs into (obs, reward, terminated,
         truncated)."""
-        return StepOutputs(self.obs, self.reward, self.terminated, self.truncated)
+        return _record(StepOutputs, self)
 
     # --- readouts of the batch (views: valid until the next step) --------------------------
     @property
@@ -488,10 +454,7 @@ class EnvCore:
             if len(noise_seeds) != envs.size:
                 raise ValueError(f"noise_seeds: one per env ({envs.size}), got {len(noise_seeds)}")
             self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
-        K.env_reset(
-            envs, *self._kernel_arrays, self.stuck0, self.obs, self.reward, self.terminated,
-            self.truncated,
-        )  # fmt: skip
+        K.env_reset(envs, self.cfg, self.icfg, self.stuck0, *self._flat, *self.step_outputs())
 
     def new_info_arrays(self) -> tuple:
         """Fresh (uninitialised) arrays for :meth:`step` to fill with the batched info."""
@@ -511,54 +474,18 @@ class EnvCore:
         reset that followed the step)."""
         self._check_info_arrays(info_arrays)
         K.fill_info_envs(
-            self._env_indices(envs),
-            self.T,
-            self.k,
-            self.z,
-            self.ax,
-            self.eps,
-            self.est,
-            info_arrays,
+            self._env_indices(envs), self.T, info_arrays, *self._flat, *self.step_outputs()
         )
 
     def info_of(self, info_arrays: tuple, b: int) -> dict:
-        """The ``info`` of env b (keys and units of :meth:`info`) from filled info arrays: the
-        same values, as views of those (fresh) arrays instead of copies of the state. (Written
-        out like info_dict rather than shared through a key table: the single env's step is
-        a few per cent faster with the literal dict.)"""
-        f, sc, sat, step = info_arrays
-        return {
-            "time": float(sc[0, b]),
-            "step": int(step[b]),
-            "position": f[K.INFO_POSITION, b],
-            "measured_position": f[K.INFO_MEASURED, b],
-            "velocity": f[K.INFO_VELOCITY, b],
-            "reference": f[K.INFO_REFERENCE, b],
-            "contour_error": float(sc[1, b]),
-            "contour_error_estimate": f[K.INFO_ESTIMATE, b],
-            "tracking_error": f[K.INFO_TRACKING, b],
-            "force": f[K.INFO_FORCE, b],
-            "saturated": sat[b],
-            "termination_reason": TERMINATION_REASONS.get(int(self.status[b])),
-        }
+        """The ``info`` of env b (keys and units of :meth:`info`,
+        :data:`contour_env.env.layout.INFO_KEYS`) from filled info arrays: views of those
+        (fresh) arrays, not copies of the state."""
+        return _info_of(self, info_arrays, b)
 
     def info_dict(self, info_arrays: tuple) -> dict:
         """The batched ``info`` (keys of :meth:`info`, leading axis B) from filled arrays."""
-        f, sc, sat, step = info_arrays
-        return {
-            "time": sc[0],
-            "step": step,
-            "position": f[K.INFO_POSITION],
-            "measured_position": f[K.INFO_MEASURED],
-            "velocity": f[K.INFO_VELOCITY],
-            "reference": f[K.INFO_REFERENCE],
-            "contour_error": sc[1],
-            "contour_error_estimate": f[K.INFO_ESTIMATE],
-            "tracking_error": f[K.INFO_TRACKING],
-            "force": f[K.INFO_FORCE],
-            "saturated": sat,
-            "termination_reason": self._reasons(),
-        }
+        return _info_dict(self, info_arrays)
 
     def step(
         self,
@@ -585,16 +512,16 @@ class EnvCore:
         else:
             self._check_info_arrays(info_arrays)
         if fresh_outputs:
-            outputs = (
+            outputs = StepOutputs(
                 np.empty_like(self.obs),
                 np.empty_like(self.reward),
                 np.empty_like(self.terminated),
                 np.empty_like(self.truncated),
             )
         else:
-            outputs = (self.obs, self.reward, self.terminated, self.truncated)
+            outputs = StepOutputs(self.obs, self.reward, self.terminated, self.truncated)
         bad, n_terminated, n_ended = self.threads(
-            self._kernel_arrays + (action, active, *outputs, self.scratch, info_arrays)
+            (self.cfg, self.icfg, action, active, info_arrays, *self._flat, *outputs)
         )
         if bad >= 0:
             raise nonfinite_action_error(action, bad)
@@ -642,24 +569,19 @@ class EnvCore:
 
     # --- readouts (physical units) ---------------------------------------------------------
     def info(self, b: int) -> dict:
-        """The per-step ``info`` dict of env b (see ContouringEnv for the keys)."""
-        ax = self.ax
-        position = self.z[b, :, 0].copy()
-        reference = ax[K.AX_REF, b].copy()
-        return {
-            "time": float(self.k[b]) * self.T,
-            "step": int(self.k[b]),
-            "position": position,
-            "measured_position": ax[K.AX_MEAS, b].copy(),
-            "velocity": self.z[b, :, 1].copy(),
-            "reference": reference,
-            "contour_error": float(self.eps[b]),
-            "contour_error_estimate": self.est[b].copy(),
-            "tracking_error": reference - position,
-            "force": ax[K.AX_APPLIED, b].copy(),
-            "saturated": ax[K.AX_SAT, b] > 0.0,
-            "termination_reason": TERMINATION_REASONS.get(int(self.status[b])),
-        }
+        """The per-step ``info`` dict of env b: the keys, units and meanings of
+        :data:`contour_env.env.layout.INFO_KEYS` (the table in ContouringEnv's docstring), read
+        from the current state."""
+        b = int(self._env_indices([b])[0])
+        A = self.dim
+        arrays = (
+            np.empty((K.INFO_ROWS, b + 1, A)),
+            np.empty((2, b + 1)),
+            np.empty((b + 1, A), dtype=bool),
+            np.empty(b + 1, dtype=np.int64),
+        )
+        K.fill_info_envs(np.array([b]), self.T, arrays, *self._flat, *self.step_outputs())
+        return self.info_of(arrays, b)
 
     def batch_info(self) -> dict:
         """Same keys as :meth:`info`, stacked over the batch (leading axis B), read from the
@@ -806,3 +728,41 @@ def check_seed(seed, name: str = "seed") -> int:
             f"({'negative' if seed < 0 else f'about 2**{seed.bit_length() - 1}'})"
         )
     return seed
+
+
+def _record(record, holder):
+    # the record of the arrays ``holder`` keeps under the record's field names
+    return record(*(getattr(holder, name) for name in record._fields))
+
+
+def _info_builder(batched: bool):
+    # info_of (one env) or info_dict (batched) as a literal dict, made from the declared
+    # INFO_KEYS: a literal dict is a few per cent of the single env's step cheaper than one
+    # built by a loop over a key table
+    items = []
+    for field, where in INFO_KEYS:
+        if where == "reason":
+            value = "core._reasons()" if batched else (
+                "TERMINATION_REASONS.get(int(core.status[b]))"
+            )  # fmt: skip
+        elif where == "sat":
+            value = "sat" if batched else "sat[b]"
+        elif where == "step":
+            value = "step" if batched else "int(step[b])"
+        elif where[0] == "s":
+            value = f"sc[{where[1]}]" if batched else f"float(sc[{where[1]}, b])"
+        else:
+            row = getattr(K, f"INFO_{where[1]}")
+            value = f"f[{row}]" if batched else f"f[{row}, b]"
+        items.append(f"        {field.name!r}: {value},")
+    args = "core, arrays" if batched else "core, arrays, b"
+    source = "\n".join(
+        [f"def build({args}):", "    f, sc, sat, step = arrays", "    return {", *items, "    }"]
+    )
+    namespace = {"TERMINATION_REASONS": TERMINATION_REASONS}
+    exec(source, namespace)  # noqa: S102  (made from the declaration, no outside input)
+    return namespace["build"]
+
+
+_info_of = _info_builder(batched=False)
+_info_dict = _info_builder(batched=True)

@@ -1,6 +1,6 @@
 """The compiled environment step, shared by the single and the vectorised env.
 
-One step of one env, :func:`_step_one`, is its stages in order, each a small compiled function
+One step of one env, :func:`step_one`, is its stages in order, each a small compiled function
 (inlined: no call is left at run time):
 
 1. command — :func:`command_stage`: the action, clipped to [−1, 1], times the force limit,
@@ -33,7 +33,7 @@ from numba import njit, prange
 from ..contour_error import path_distance
 from ..noise import standard_normal, uniform01
 from ..plants.kernel import NL_FD, NL_FMAX, NL_INV_RES, NL_RES, axis_step
-from .borrow import borrowed
+from .borrow import borrowed, record_borrower
 from .layout import (  # noqa: F401  (the layout's names, re-exported: K.AX_MEAS, K.C_T, ...)
     AX_APPLIED,
     AX_MEAS,
@@ -70,6 +70,7 @@ from .layout import (  # noqa: F401  (the layout's names, re-exported: K.AX_MEAS
     C_W_EFFORT,
     C_W_LAG,
     CFG_SIZE,
+    ENTRY_RECORDS,
     I_DELAY,
     I_NSTEPS,
     I_NSUB,
@@ -82,6 +83,10 @@ from .layout import (  # noqa: F401  (the layout's names, re-exported: K.AX_MEAS
     INFO_ROWS,
     INFO_TRACKING,
     INFO_VELOCITY,
+    OUT_END,
+    PATH_END,
+    PLANT_END,
+    STATE_END,
     STATUS_CONTOUR_LIMIT,
     STATUS_NONFINITE,
     STATUS_OK,
@@ -216,10 +221,13 @@ def fill_info(n_axes, b, T, k, z, ax, eps, est, info):
 
 
 @njit(cache=True)
-def fill_info_envs(envs, T, k, z, ax, eps, est, info):
-    """:func:`fill_info` for the envs listed in ``envs`` (e.g. those reset after a step)."""
+def fill_info_envs(envs, T, info, *arrays):
+    """:func:`fill_info` for the envs listed in ``envs`` (e.g. those reset after a step); the
+    records' arrays flat, as :func:`env_step` takes them."""
+    state = records_of(arrays)[0]
+    z = state.z
     for j in range(envs.shape[0]):
-        fill_info(z.shape[1], envs[j], T, k, z, ax, eps, est, info)
+        fill_info(z.shape[1], envs[j], T, state.k, z, state.ax, state.eps, state.est, info)
 
 
 @njit(cache=True, inline="always")
@@ -327,7 +335,7 @@ def guard_stage(e, te2, cfg):
 
 
 @njit(cache=True, inline="always")
-def _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info):
+def step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info):
     """One env, one servo period: the stages of the module docstring in order (the body
     shared by the serial and the parallel driver and the compiled episode loops of
     :mod:`agents.compiled`). ``n_axes`` = z.shape[1], passed in so that a driver can give it
@@ -388,30 +396,29 @@ def first_bad_action(action, active):
 
 
 @njit(cache=True, inline="always")
-def _records(z, ax, k, eps, est, status, seed, scratch, ref_pav, frame, obs_tab, seg_type,
-             seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, obs, reward, terminated,
-             truncated):  # fmt: skip
-    """The arrays of an entry point as the step's records (:mod:`.layout`)."""
+def records_of(arrays):
+    """The records (EnvState, PathArrays, PlantArrays, StepOutputs) of an entry point's flat
+    arrays (:data:`contour_env.env.layout.ENTRY_RECORDS`)."""
     return (
-        EnvState(z, ax, k, eps, est, status, seed, scratch),
-        PathArrays(ref_pav, frame, obs_tab, seg_type, seg_data, seg_bounds),
-        PlantArrays(mat_T, mat_h, cont, nl, pidx),
-        StepOutputs(obs, reward, terminated, truncated),
+        EnvState(*arrays[0:STATE_END]),
+        PathArrays(*arrays[STATE_END:PATH_END]),
+        PlantArrays(*arrays[PATH_END:PLANT_END]),
+        StepOutputs(*arrays[PLANT_END:OUT_END]),
     )
+
+
+# the records with every array borrowed (contour_env.env.borrow), made from their declarations
+_borrow_state, _borrow_path, _borrow_plant, _borrow_out = (
+    record_borrower(record) for record in ENTRY_RECORDS
+)
+borrow_trace = record_borrower(EpisodeTrace)
 
 
 @njit(cache=True, inline="always")
 def borrowed_records(state, path, plant, out):
     """The records with every array borrowed (:func:`contour_env.env.borrow.borrowed`), for a
-    compiled loop called from Python with them (:mod:`agents.compiled`)."""
-    B = borrowed
-    return _records(
-        B(state.z), B(state.ax), B(state.k), B(state.eps), B(state.est), B(state.status),
-        B(state.seed), B(state.scratch), B(path.ref_pav), B(path.frame), B(path.obs_tab),
-        B(path.seg_type), B(path.seg_data), B(path.seg_bounds), B(plant.mat_T), B(plant.mat_h),
-        B(plant.cont), B(plant.nl), B(plant.pidx), B(out.obs), B(out.reward),
-        B(out.terminated), B(out.truncated),
-    )  # fmt: skip
+    compiled loop called from Python with them (the drivers below, :mod:`agents.compiled`)."""
+    return _borrow_state(state), _borrow_path(path), _borrow_plant(plant), _borrow_out(out)
 
 
 @njit(cache=True, inline="always")
@@ -430,32 +437,29 @@ def record_step(n, b, n_axes, T, n_steps, state, path, trace):
 
 
 @njit(cache=True)
-def step_range(
-    lo, hi, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type,
-    seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
-    truncated, scratch, info,
-):  # fmt: skip
+def step_range(lo, hi, cfg, icfg, action, active, info, arrays):
     """The one loop of both drivers: every active env b of [lo, hi) advanced by one servo
-    period (:func:`_step_one`). Returns (n_terminated, n_ended) among them.
+    period (:func:`step_one`). Returns (n_terminated, n_ended) among them. ``arrays``: the
+    entry point's flat record arrays (:func:`records_of`), passed on as the one tuple (a
+    tuple argument reaches the parallel driver's threads as it is; records built in the
+    driver and handed into its ``prange`` do not compile).
 
-    The arrays are borrowed once here, before the loop, and the per-env step is inlined in it:
-    a null meminfo is a constant, so the compiled loop has no reference-count update left at
-    all (:mod:`contour_env.env.borrow`; issue 35: a per-env function receiving its arrays cost
-    1.6x). Records built in a ``prange`` body instead are hoisted out of it by numba's parfor
-    pass and reach the threads with the caller's reference counts: every field read was then
-    an atomic increment and decrement on counters the threads share (measured at 4096 envs:
-    the parallel driver 2.1 M env-steps/s on one thread against the serial 5.7 M, and slower on
-    two threads than on one). The parallel driver therefore calls this function once per
-    thread, on a contiguous block of envs."""
-    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
-    z2 = z.reshape((z.shape[0] * z.shape[1], z.shape[2]))
+    The records are borrowed once here, before the loop, and the per-env step is inlined in
+    it: a null meminfo is a constant, so the compiled loop has no reference-count update left
+    at all (:mod:`contour_env.env.borrow`; issue 35: a per-env function receiving its arrays
+    cost 1.6x). Records built in a ``prange`` body instead are hoisted out of it by numba's
+    parfor pass and reach the threads with the caller's reference counts: every field read was
+    then an atomic increment and decrement on counters the threads share (measured at 4096
+    envs: the parallel driver 2.1 M env-steps/s on one thread against the serial 5.7 M, and
+    slower on two threads than on one). The parallel driver therefore calls this function once
+    per thread, on a contiguous block of envs."""
     B = borrowed
-    state, path, plant, out = _records(
-        B(z), B(ax), B(k), B(eps), B(est), B(status), B(seed), B(scratch), B(ref_pav),
-        B(frame), B(obs_tab), B(seg_type), B(seg_data), B(seg_bounds), B(mat_T), B(mat_h),
-        B(cont), B(nl), B(pidx), B(obs), B(reward), B(terminated), B(truncated),
-    )  # fmt: skip
-    cfg, icfg, action, active, z2 = B(cfg), B(icfg), B(action), B(active), B(z2)
+    state, path, plant, out = records_of(arrays)
+    state, path, plant, out = borrowed_records(state, path, plant, out)
+    z = state.z
+    # the states as rows (env b, axis i) -> b * A + i: a view made once per call, not per env
+    z2 = B(z.reshape((z.shape[0] * z.shape[1], z.shape[2])))
+    cfg, icfg, action, active = B(cfg), B(icfg), B(action), B(active)
     info = (B(info[0]), B(info[1]), B(info[2]), B(info[3]))
     n_axes = z.shape[1]
     n_terminated = 0
@@ -463,32 +467,27 @@ def step_range(
     for b in range(lo, hi):
         if active[b]:
             if n_axes == 2:
-                _step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
+                step_one(2, b, cfg, icfg, state, z2, path, plant, action, out, info)
             else:
-                _step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
+                step_one(n_axes, b, cfg, icfg, state, z2, path, plant, action, out, info)
             n_terminated += 1 if out.terminated[b] else 0
             n_ended += 1 if out.terminated[b] or out.truncated[b] else 0
     return n_terminated, n_ended
 
 
 @njit(cache=True)
-def env_step(
-    cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type, seg_data,
-    seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
-    truncated, scratch, info,
-):  # fmt: skip
+def env_step(cfg, icfg, action, active, info, *arrays):
     """Advance every active env by one servo period, in place (serial driver).
 
     Returns (bad, n_terminated, n_ended): bad is -1, or the index of the first env whose action
     is not finite (nothing is changed then); n_terminated and n_ended count the stepped envs
     now terminated, and terminated or truncated.
 
-    The arrays (:mod:`.layout`): cfg, icfg; obs_tab, ref_pav, frame and the segment table;
-    z (B, A, ns), ax (AX_SIZE, B, A), k, status (B,) int64, eps (B,), est (B, A), seed (B,)
-    uint64; the packed plant parameters and pidx; action (B, A) in [-1, 1] of the force limit;
-    active (B,) bool; obs (B, O) float32, reward, terminated, truncated (B,); scratch (2 B, ns);
-    info: the tuple of batched info arrays of :func:`fill_info`, filled for every stepped env
-    (empty arrays: none). Python passes them one by one (cheaper to call than records).
+    The arguments (:mod:`.layout`): cfg, icfg; action (B, A) in [-1, 1] of the force limit;
+    active (B,) bool; info: the tuple of batched info arrays of :func:`fill_info`, filled for
+    every stepped env (empty arrays: none); then the arrays of the records :class:`EnvState`,
+    :class:`PathArrays`, :class:`PlantArrays` and :class:`StepOutputs` (obs (B, O) float32,
+    reward, terminated, truncated (B,)), flat, in their declared order (:func:`records_of`).
 
     Two axes are given to the step as a literal: the compiler unrolls the per-axis loops and
     interleaves the two axes (measured 1.1-2x faster); other axis counts take the generic body.
@@ -498,11 +497,7 @@ def env_step(
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad, 0, 0
-    n_terminated, n_ended = step_range(
-        0, z.shape[0], cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-        seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs,
-        reward, terminated, truncated, scratch, info,
-    )  # fmt: skip
+    n_terminated, n_ended = step_range(0, action.shape[0], cfg, icfg, action, active, info, arrays)
     return -1, n_terminated, n_ended
 
 
@@ -513,11 +508,7 @@ PARALLEL_BLOCKS = 64
 
 
 @njit(cache=True, parallel=True)
-def env_step_parallel(
-    cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type, seg_data,
-    seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs, reward, terminated,
-    truncated, scratch, info,
-):  # fmt: skip
+def env_step_parallel(cfg, icfg, action, active, info, *arrays):
     """As :func:`env_step`, with the envs spread over numba's threads (``numba.set_num_threads``
     before the call sets how many): the batch cut into contiguous blocks of at least
     :data:`PARALLEL_BLOCK_ENVS` envs (at most :data:`PARALLEL_BLOCKS` blocks), which numba's
@@ -529,31 +520,31 @@ def env_step_parallel(
     bad = first_bad_action(action, active)
     if bad >= 0:
         return bad, 0, 0
-    n_envs = z.shape[0]
+    n_envs = action.shape[0]
     n_chunks = max(min(PARALLEL_BLOCKS, n_envs // PARALLEL_BLOCK_ENVS), 1)
     counts = np.zeros((n_chunks, 2), dtype=np.int64)
     for c in prange(n_chunks):
         lo = c * n_envs // n_chunks
         hi = (c + 1) * n_envs // n_chunks
-        n_term, n_end = step_range(
-            lo, hi, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame,
-            seg_type, seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, action, active, obs,
-            reward, terminated, truncated, scratch, info,
-        )  # fmt: skip
+        n_term, n_end = step_range(lo, hi, cfg, icfg, action, active, info, arrays)
         counts[c, 0] = n_term
         counts[c, 1] = n_end
     return -1, counts[:, 0].sum(), counts[:, 1].sum()
 
 
 @njit(cache=True)
-def env_reset(
-    envs, cfg, icfg, obs_tab, z, ax, k, eps, est, status, seed, ref_pav, frame, seg_type,
-    seg_data, seg_bounds, mat_T, mat_h, cont, nl, pidx, stuck0, obs, reward, terminated,
-    truncated,
-):  # fmt: skip
+def env_reset(envs, cfg, icfg, stuck0, *arrays):
     """Put every env listed in ``envs`` (int64 indices) at rest on the reference start point
-    (k = 0), with its observation, zero reward and no done flags (seeds already in ``seed``).
-    The arrays in :func:`env_step`'s order (``icfg`` and the plant matrices unused here)."""
+    (k = 0), with its observation, zero reward and no done flags (seeds already in
+    ``state.seed``). ``stuck0`` (A,): 1.0 where the axis starts held by static friction; the
+    records' arrays flat, as :func:`env_step` takes them (``icfg`` and the plant matrices
+    unused here)."""
+    state, path, plant, out = records_of(arrays)
+    z, ax, k, eps, est = state.z, state.ax, state.k, state.eps, state.est
+    status, seed, nl, pidx = state.status, state.seed, plant.nl, plant.pidx
+    ref_pav, frame, obs_tab = path.ref_pav, path.frame, path.obs_tab
+    seg_type, seg_data, seg_bounds = path.seg_type, path.seg_data, path.seg_bounds
+    obs, reward, terminated, truncated = out.obs, out.reward, out.terminated, out.truncated
     for j in range(envs.shape[0]):
         b = envs[j]
         n_axes = z.shape[1]

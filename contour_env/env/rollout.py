@@ -4,7 +4,7 @@ A policy that offers ``compiled_form()`` (the classical controllers ``pd``, ``cc
 ``adaptive-ccc``, ``jee-ccc``: :mod:`agents.compiled`) is run by
 :func:`contour_env.evaluation.run_episode` without a Python call per servo period: the loop
 computes the command from the env's servo signals, steps the env with the kernel's per-env
-step (:func:`contour_env.env.kernel._step_one`) and records what ``run_episode`` records. The
+step (:func:`contour_env.env.kernel.step_one`) and records what ``run_episode`` records. The
 record is bit-identical to the Python path's (same arithmetic, same counter-based noise keyed
 by the episode seed); the env and the controller are left in the state the Python path leaves
 them in.

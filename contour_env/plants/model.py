@@ -4,7 +4,7 @@ arrays the compiled step reads. Its :meth:`Plant.step` is a pure function of (st
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -68,6 +68,12 @@ class PackedPlant:
     @property
     def n_envs(self) -> int:
         return self.pidx.shape[0]
+
+    def __iter__(self):
+        """The arrays in field order, as the compiled plant step takes them
+        (``plant_step_batch(..., *packed, ...)``; the env's ``PlantArrays`` record has the
+        same fields in the same order)."""
+        return (getattr(self, f.name) for f in fields(self))
 
 
 def pack_params(params_list: list[PlantParams]) -> PackedPlant:
@@ -233,11 +239,7 @@ class Plant:
             self.servo_period_s,
             self.params.friction_substeps,
             self.params.computation_delay,
-            packed.mat_T,
-            packed.mat_h,
-            packed.cont,
-            packed.nl,
-            packed.pidx,
+            *packed,
             applied,
             np.zeros_like(command),
         )

@@ -110,7 +110,7 @@ def test_check_controllers_returns_the_records_bound_controller_takes(split_coun
 def test_split_spec_is_called_by_parse_spec_only():
     # the tokenizer's one caller: agents/registry.py's parse_spec
     calls = []
-    for root in ("agents", "contour_env", "scripts", "research"):
+    for root in ("agents", "contour_env", "scripts"):
         for path in (ROOT / root).rglob("*.py"):
             for n, line in enumerate(path.read_text().splitlines(), 1):
                 if re.search(r"\bsplit_spec\(", line) and "def split_spec" not in line:
