@@ -572,7 +572,9 @@ class EnvCore:
         """The per-step ``info`` dict of env b: the keys, units and meanings of
         :data:`contour_env.env.layout.INFO_KEYS` (the table in ContouringEnv's docstring), read
         from the current state."""
-        b = int(self._env_indices([b])[0])
+        if not isinstance(b, (int, np.integer)) or not 0 <= b < self.n_envs:
+            raise ValueError(f"b: an env index in [0, {self.n_envs}), got {b!r}")
+        b = int(b)
         A = self.dim
         arrays = (
             np.empty((K.INFO_ROWS, b + 1, A)),

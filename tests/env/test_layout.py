@@ -10,6 +10,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 from contour_env import ENV_ID
 from contour_env.env import kernel as K
@@ -44,9 +45,12 @@ def test_the_config_is_packed_from_the_declaration():
     assert cfg[L.C_FEED_SCALE] == s.feedrate_m_s and cfg[L.C_INV_AXES] == 0.5
     assert cfg[L.C_GUARD_PENALTY] == c.guard_penalty
     assert cfg.size == L.CFG_SIZE + len(c.preview_times_s)
-    assert list(core.icfg) == [core.n_steps, s.plant.params.friction_substeps, 0] or list(
-        core.icfg
-    )[:2] == [core.n_steps, s.plant.params.friction_substeps]
+    params = s.plant.params
+    assert list(core.icfg) == [
+        core.n_steps, params.friction_substeps, int(params.computation_delay)
+    ]  # fmt: skip
+    with pytest.raises(ValueError, match=r"b: an env index in \[0, 1\), got 5"):
+        core.info(5)
 
 
 def test_obs_dim_and_the_observation_table():
