@@ -200,9 +200,9 @@ class RFNNController(PDController):
     ``margin=1`` (or ``kappa=κ``) bounds the rule weights' spread per direction by
     :func:`spread_limit`, so that the network's steepest slope adds at most κ P_min of
     stiffness (κ from the loop margins, :data:`MARGIN_KAPPA`): without it the network learns a
-    slope of ~10 P near e = 0 on hsm2 and the normal loop chatters at 70–80 Hz. Both run the
-    Python law (the compiled one has neither); ``eq23_peak`` records the largest per-sample
-    eq. 23 value of a Python-loop run.
+    slope of ~10 P near e = 0 on hsm2 and the normal loop chatters at 70–80 Hz. Both are part
+    of the compiled law; ``eq23_peak`` records the largest per-sample eq. 23 value since the
+    last ``reset`` (NaN before the network has learnt), on every path.
 
     **Across episodes.** ``reset`` starts the network afresh (w = w0, θ = θ0, no memory);
     with ``keep=True`` it keeps the learnt w and θ and clears only the recurrent memory
@@ -217,7 +217,8 @@ class RFNNController(PDController):
 
     name = "rfnn"
     COMPILED_LAW = "rfnn"
-    INPUT_LIMIT, THETA_LIMIT = INPUT_LIMIT, THETA_LIMIT  # the compiled law reads them here
+    # the compiled law reads them here
+    INPUT_LIMIT, THETA_LIMIT, EQ23_INSTANT_CAP = INPUT_LIMIT, THETA_LIMIT, EQ23_INSTANT_CAP
     recurrent = True
     PARAMETERS = {
         **PDController.PARAMETERS,
@@ -257,19 +258,19 @@ class RFNNController(PDController):
             "eq23_instant",
             "check eq. 23 at every sample instead of over every reachable state: lr_theta is "
             "not limited at configuration, a sample's θ step is scaled to keep eq. 23 <= 1 "
-            "(default false; Python loop)",
+            "(default false)",
             BOOL,
         ),
         "margin": Param(
             "margin_bound",
             "bound the rule weights' spread so that the network's steepest slope adds at most "
-            "the plant's margin-derived stiffness (MARGIN_KAPPA; default false; Python loop)",
+            "the plant's margin-derived stiffness (MARGIN_KAPPA; default false)",
             BOOL,
         ),
         "kappa": Param(
             "kappa",
             "that bound with an explicit κ: added stiffness <= κ x the PD's smallest P "
-            "(default 0: none; Python loop)",
+            "(default 0: none)",
             check=">=0",
         ),
     }
@@ -342,12 +343,6 @@ class RFNNController(PDController):
         self.eq23_peak = math.nan
         # a rate given explicitly is checked now, the plant-derived ones when bound
         self._set_rates(self._lr_w_user if self._lr_w_user is not None else 0.0)
-        if self.eq23_instant or self.margin_bound or (self._kappa_user or 0.0) > 0.0:
-            # the compiled law (agents/compiled/laws.py) has neither the per-sample eq. 23
-            # check nor the spread bound: an ``act`` on the instance tells every compiled
-            # runner (agents.compiled.forms.compiled_form, a residual's base included) that
-            # this law is not the compiled one, so the Python law runs
-            self.act = self._act
 
     def _set_rates(self, lr_w: float) -> None:
         """lr_w, lr_theta from the user's values or the defaults, checked against eq. 23."""
@@ -400,7 +395,7 @@ class RFNNController(PDController):
 
     def reset(self, mask=None) -> None:
         B, A, R = self.n_envs, self.n_axes, self.n_rules
-        # the largest per-sample eq. 23 value of the episode (Python law; NaN until it runs)
+        # the largest per-sample eq. 23 value of the episode (NaN until the network learns)
         self.eq23_peak = math.nan
         fresh = mask is None or not hasattr(self, "w") or self.w.shape[0] != B
         if fresh and (not self.keep or not hasattr(self, "w") or self.w.shape[0] != B):
@@ -448,59 +443,31 @@ class RFNNController(PDController):
             sd = sd + F[:, i, :] * Ed[:, i : i + 1]
         return -se, -sd
 
-    def act(self, signals: dict) -> np.ndarray:
-        return self._act(signals)
-
-    def _act(self, signals: dict) -> np.ndarray:
-        u = super().act(signals)
-        B = u.shape[0]
+    def network_inputs(self, signals: dict) -> np.ndarray:
+        """The normalised inputs x (B, A, 2) the network reads this sample: per task-frame
+        direction (e / e0, s / s0) clipped to ±INPUT_LIMIT, with (e, ė) of
+        :meth:`task_errors` and s = ė + α e. For analysis (with :meth:`network` and the
+        state ``memory``, ``theta``, ``w`` held before :meth:`act`); the law itself is
+        compiled."""
         e, de = self.task_errors(signals)
         s = de + self.alpha * e
         lim = INPUT_LIMIT
-        x = np.stack(
+        return np.stack(
             [
                 np.clip(e * self.inv_input_scale[0], -lim, lim),
                 np.clip(s * self.inv_input_scale[1], -lim, lim),
             ],
             axis=-1,
         )
-        w, theta, memory = self.w[:B], self.theta[:B], self.memory[:B]
-        y, psi, O2, d = self.network(x, memory, theta, w)
-        if self.online_update:
-            # eq. 23 at this sample, per direction: lr_w ‖∂y/∂w‖² + lr_theta ‖∂y/∂θ‖² / w_max²
-            value = self.lr_w * np.sum(psi * psi, axis=-1)
-            if self.recurrent and self.k_theta > 0.0:
-                g = self.theta_gradient(psi, w, y, d, memory)
-                step = (self.k_theta * e)[..., None, None] * g
-                v_theta = self.lr_theta / (self.w_max * self.w_max) * np.sum(g * g, axis=(-2, -1))
-                if self.eq23_instant:
-                    over = value + v_theta > EQ23_INSTANT_CAP
-                    if np.any(over):  # scale this sample's θ step down to the cap
-                        room = np.maximum(EQ23_INSTANT_CAP - value, 0.0)
-                        scale = np.where(over, room / np.where(over, v_theta, 1.0), 1.0)
-                        step = step * scale[..., None, None]
-                        v_theta = v_theta * scale
-                theta[:] = np.clip(theta - step, -THETA_LIMIT, THETA_LIMIT)
-                value = value + v_theta
-            peak = float(np.max(value))
-            if not peak <= self.eq23_peak:  # also the first sample (NaN)
-                self.eq23_peak = peak
-            w_new = w - (self.k_w * e)[..., None] * psi
-            if self.spread_max_N < math.inf:
-                # the spread bound: every weight within ±Δw_max/2 of the output at these
-                # inputs with the new weights (the rules that fire keep what they learnt)
-                half = 0.5 * self.spread_max_N
-                y_new = np.sum(w_new * psi, axis=-1, keepdims=True)
-                w_new = np.clip(w_new, y_new - half, y_new + half)
-            w[:] = np.clip(w_new, -self.w_max, self.w_max)
-        if self.recurrent:
-            memory[:] = O2
-        # the task-frame force y on the axes: F y
-        F = signals["frame"]
-        corr = F[:, :, 0] * y[:, 0:1]
-        for p in range(1, self.n_axes):
-            corr = corr + F[:, :, p] * y[:, p : p + 1]
-        return u + corr
+
+    def act(self, signals: dict) -> np.ndarray:
+        """PD plus the network's task-frame force F y, and one learning step (eqs. 5–7,
+        14–19, with the options ``instant`` and ``margin`` / ``kappa``): the compiled law
+        ``rfnn`` (:func:`agents.compiled.laws.law`, the one definition the fused loops run
+        too); the network's state (``w``, ``theta``, ``memory``) and ``eq23_peak`` advance."""
+        from .compiled.forms import run_law
+
+        return run_law(self, "rfnn", signals)
 
     def loop_gains(self, frame, curvature=0.0, torsion=0.0, feedrate_m_s=0.0):
         raise ValueError(

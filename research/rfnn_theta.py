@@ -14,11 +14,10 @@ plant) is run and printed: max / RMS contour error (µm), Chen & Lee's total con
 (mm), the largest and the mean |θ − θ0| over every link at the end of the run, the range of θ,
 and ``eq23 peak``: the largest value over the run's samples and task-frame directions of
 lr_w ‖∂y/∂w‖² + lr_theta ‖∂y/∂θ‖² / w_max² (= η_w y_u² ‖∂O⁽⁴⁾/∂w‖² + η_θ y_u² ‖∂O⁽⁴⁾/∂θ‖², the
-quantity eq. 23 keeps below 2; the Python law records it, so ``--python`` runs every
-controller through the Python loop, ~0.2 ms a step, ~35 s for lm-circle3d; without it a
-controller with a compiled law runs compiled and its peak prints as —). ``--tuning`` runs
-``agents.rfnn.TUNING_PATH`` (scripts/rfnn_tune.py's arc; not a named case) instead of
-``--case``; ``--feedrate`` overrides the case's feed (fewer samples).
+quantity eq. 23 keeps below 2; the law records it on every path; ``--python`` runs every
+controller through the Python env loop, one ``act`` per step, the same law and figures).
+``--tuning`` runs ``agents.rfnn.TUNING_PATH`` (scripts/rfnn_tune.py's arc; not a named case)
+instead of ``--case``; ``--feedrate`` overrides the case's feed (fewer samples).
 
 ``--paper-gradient`` (Python loop) also prints, over every sample and direction of each run, the
 5/25/50/75/95th percentiles of ‖g_paper‖ / ‖g‖: the θ gradient as the paper's eq. 19 writes it,
@@ -62,19 +61,23 @@ def theta_figures(
     c = make_controller(spec).bind(env)
     ratios: list[np.ndarray] = []
     if paper_gradient:
-        forward = c.network
+        law = c.act
 
-        def network(x, memory, theta, w):
-            y, psi, O2, d = forward(x, memory, theta, w)
+        def act(signals):
+            # the network of this sample with the state the law reads (before its update)
+            x = c.network_inputs(signals)
+            B = x.shape[0]
+            memory, theta, w = c.memory[:B], c.theta[:B], c.w[:B]
+            y, psi, O2, d = c.network(x, memory, theta, w)
             factor = 2.0 * d * memory * c.inv_sigma2
             exact = c.theta_gradient(psi, w, y, d, memory)
             paper = -(w * (O2[..., 0, :] * O2[..., 1, :]))[..., None, :] * factor
             n_exact = np.sqrt(np.sum(exact * exact, axis=(-2, -1)))
             n_paper = np.sqrt(np.sum(paper * paper, axis=(-2, -1)))
             ratios.append(n_paper[n_exact > 0] / n_exact[n_exact > 0])
-            return y, psi, O2, d
+            return law(signals)
 
-        c.network = network
+        c.act = act
     record = run_episode(env, c, seed=seed, compiled=False if (python or paper_gradient) else None)
     m = score(record, metrics=("total",))
     moved = np.abs(c.theta[0] - c.theta0)
@@ -103,7 +106,9 @@ def main(argv=None) -> int:
     ap.add_argument("--case", default="lm-circle3d")
     ap.add_argument("--tuning", action="store_true", help="agents.rfnn.TUNING_PATH, not --case")
     ap.add_argument("--controllers", default="rfnn,rfnn:theta0=0,fnn")
-    ap.add_argument("--python", action="store_true", help="Python loop (records eq23 peak)")
+    ap.add_argument(
+        "--python", action="store_true", help="the Python env loop (same law and figures)"
+    )
     ap.add_argument("--feedrate", type=float, default=None, help="feed override, m/s")
     ap.add_argument("--paper-gradient", action="store_true", help="‖g_paper‖ / ‖g‖ (above)")
     ap.add_argument("--seed", type=int, default=0)

@@ -123,11 +123,15 @@ def network_slopes(env, spec: str, seed: int = 0):
     if not isinstance(c, RFNNController):
         raise ValueError(f"{spec}: --slopes needs an rfnn or fnn controller")
     c.bind(env)
-    forward = c.network
+    forward, law = c.network, c.act
     rows: list[tuple[float, float, float]] = []
     h, p = 1e-4, 1
 
-    def network(x, memory, theta, w):
+    def act(signals):
+        # the network of this sample, its memory, θ and w held as the law reads them
+        x = c.network_inputs(signals)
+        B = x.shape[0]
+        memory, theta, w = c.memory[:B], c.theta[:B], c.w[:B]
         f = []
         for i in range(2):
             xp, xm = x.copy(), x.copy()
@@ -137,9 +141,9 @@ def network_slopes(env, spec: str, seed: int = 0):
             f.append(0.0 if abs(x[0, p, i]) >= INPUT_LIMIT else float(d[0, p]))
         e0, s0 = c.input_scale  # x = (e / e0, (ė + α e) / s0)
         rows.append((f[0] / e0 + f[1] * c.alpha / s0, f[1] / s0, float(np.ptp(w[0, p]))))
-        return forward(x, memory, theta, w)
+        return law(signals)
 
-    c.network = network
+    c.act = act  # a law on the instance: the run takes the Python loop, one act per sample
     record = run_episode(env, c, seed=seed, compiled=False)
     arr = np.asarray(rows[: len(record.time)])
     return record, arr[:, 0], arr[:, 1], arr[:, 2], c

@@ -145,14 +145,21 @@ def _rfnn_fp(c) -> np.ndarray:
         float(c.online_update and c.recurrent and c.k_theta > 0.0),  # θ learns
         c.centres.reshape(-1),
         c.inv_sigma2.reshape(-1),
+        c.lr_w,
+        c.lr_theta / (c.w_max * c.w_max),
+        float(c.eq23_instant),
+        c.EQ23_INSTANT_CAP,
+        0.5 * c.spread_max_N,  # inf: no spread bound
     )
 
 
 def _rfnn_st(c) -> np.ndarray:
     B, R = c.n_envs, c.n_rules
     scratch = np.zeros((B, 3 * R + c.n_axes))  # 2 (u − m) O(k−1) / σ², ψ, y of the sample
+    peak = np.full((B, 1), c.eq23_peak)  # the largest per-sample eq. 23 value (NaN: none)
     return np.concatenate(
-        [c.w.reshape(B, -1), c.theta.reshape(B, -1), c.memory.reshape(B, -1), scratch], axis=1
+        [c.w.reshape(B, -1), c.theta.reshape(B, -1), c.memory.reshape(B, -1), scratch, peak],
+        axis=1,
     )
 
 
@@ -161,6 +168,7 @@ def _rfnn_store(c, st) -> None:
     c.w[:] = st[:, : A * R].reshape(B, A, R)
     c.theta[:] = st[:, A * R : 3 * A * R].reshape(B, A, 2, R)
     c.memory[:] = st[:, 3 * A * R : 5 * A * R].reshape(B, A, 2, R)
+    c.eq23_peak = float(np.fmax.reduce(st[:, -1]))  # NaN only if no env has learnt yet
 
 
 _STORE = {
@@ -275,8 +283,8 @@ def signal_tables(signals: dict, n_axes: int, needs=()) -> tuple:
 
 def run_law(controller, law: str, signals: dict) -> np.ndarray:
     """The command u (B, A) (plant units) of the compiled law ``law`` (``"pd"``, ``"ccc"``,
-    ``"adaptive-ccc"``, ``"jee-ccc"``) with ``controller``'s gains and state, for batched
-    ``signals`` (B ≤ the bound batch): the Python ``act`` of those controllers. The law is
+    ``"adaptive-ccc"``, ``"jee-ccc"``, ``"rfnn"``) with ``controller``'s gains and state, for
+    batched ``signals`` (B ≤ the bound batch): the Python ``act`` of those controllers. The law is
     :func:`.laws.law`, the one the fused loops run; the state it advanced is written back into
     the controller's attributes."""
     kind, fp, st = _pack(controller, law)

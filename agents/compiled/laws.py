@@ -6,10 +6,12 @@ velocity, acceleration, frame, curvature, torsion and feedrate from the referenc
 keeps the controller's state in row ``b`` of a float64 array ``st`` (flags as 0/1). Gains come
 in a float64 vector ``fp`` (layouts: :mod:`agents.compiled.forms`).
 
-The arithmetic is the Python ``act``'s, operation for operation and in numpy's summation
-order (sums of 2–3 terms left to right; ``einsum("bij,bj->bi")`` over 3 terms as
-(p0 + p2) + p1, numpy's two-lane pairing), so a compiled run is bit-identical to the Python
-one. The Python ``act`` stays the readable reference; change both together.
+Each law is defined here once: the controllers' Python ``act`` runs it through
+:func:`act_rows`, the fused loops (:mod:`.runner`, :mod:`.residual_runner`) inline it. The
+NumPy reference of the test suite (tests/agents/numpy_laws.py, from the papers' equations) is
+written in the same summation order (sums of 2–3 terms left to right; ``einsum("bij,bj->bi")``
+over 3 terms as (p0 + p2) + p1, numpy's two-lane pairing; the rfnn's sums over rules from
+j = 0), so every path is bit-identical to it.
 """
 
 from __future__ import annotations
@@ -36,8 +38,10 @@ WORK_SIZE = 4 * 3 + 2 * 9 + 6
 # normalize, velocity_match, any_gamma, mean_squares (ncol), Gamma (ncol·A)]; st = θ̂ (ncol·A)
 # --- jee-ccc: fp = [K_P (A), C_P, C_I, C_D]; st = [sum (A), prev (A), started]
 # --- rfnn / fnn: fp = [P (A), D (A), alpha, 1/scale_e, 1/scale_s, input_limit, theta_limit,
-# w_max, k_w, k_theta, learn, recurrent, R, learn_theta, centres (2 R), 1/σ² (2 R)]; st = [w (A R),
-# θ (A 2 R), memory O(k−1) (A 2 R), then scratch: 2 (u − m) O(k−1) / σ² (2 R), ψ (R), y (A)]
+# w_max, k_w, k_theta, learn, recurrent, R, learn_theta, centres (2 R), 1/σ² (2 R), lr_w,
+# lr_theta / w_max², instant, EQ23_INSTANT_CAP, half the spread bound (N; inf: none)];
+# st = [w (A R), θ (A 2 R), memory O(k−1) (A 2 R), then scratch: 2 (u − m) O(k−1) / σ² (2 R),
+# ψ (R), y (A); then the largest per-sample eq. 23 value so far (NaN: none yet)]
 
 
 @njit(cache=True, inline="always")
@@ -267,28 +271,91 @@ def _jee(A, b, kk, T, ax, ref_pav, frame, fp, st, u, E):
 
 
 @njit(cache=True, inline="always")
+def _rfnn_learn(R, e, y, fp, o, o_x, r, q_w, q_th, s_t, s_psi, s_pk):
+    # one direction's update (eqs. 14–19) with the options of issue 38: the per-sample eq. 23
+    # value (recorded in r[s_pk], its largest so far), its cap on the θ step (instant=1) and
+    # the rule weights' spread bound (margin=1 / kappa=κ). Sums run left to right, j = 0 first
+    # (the θ gradient's: input 0's rules, then input 1's), as the NumPy reference writes them.
+    k_w = fp[o + 6]
+    k_th = fp[o + 7]
+    learn_theta = fp[o + 11] != 0.0  # learn and recurrent and k_θ > 0
+    lr_w = fp[o_x]
+    v_coef = fp[o_x + 1]  # lr_theta / w_max²
+    instant = fp[o_x + 2] != 0.0
+    cap = fp[o_x + 3]
+    half = fp[o_x + 4]  # half the spread bound (N); inf: none
+    w_max = fp[o + 5]
+    ss = 0.0
+    for j in range(R):
+        psi = r[s_psi + j]
+        ss = psi * psi if j == 0 else ss + psi * psi
+    value = lr_w * ss
+    if learn_theta:
+        th_lim = fp[o + 4]
+        for j in range(R):  # the θ gradient, in place of its factor 2 (u − m) O(k−1) / σ²
+            a = r[s_psi + j] * (r[q_w + j] - y)
+            r[s_t + j] = -a * r[s_t + j]
+            r[s_t + R + j] = -a * r[s_t + R + j]
+        gg = 0.0
+        for j in range(2 * R):
+            g = r[s_t + j]
+            gg = g * g if j == 0 else gg + g * g
+        v_theta = v_coef * gg
+        scaled = False
+        scale = 1.0
+        if instant and value + v_theta > cap:  # scale this sample's θ step down to the cap
+            room = cap - value
+            if room < 0.0:
+                room = 0.0
+            scale = room / v_theta
+            v_theta = v_theta * scale
+            scaled = True
+        ge = k_th * e
+        for j in range(2 * R):
+            step = ge * r[s_t + j]
+            if scaled:
+                step = step * scale
+            r[q_th + j] = _clip(r[q_th + j] - step, -th_lim, th_lim)
+        value = value + v_theta
+    if not value <= r[s_pk]:  # also the first sample (NaN)
+        r[s_pk] = value
+    gw = k_w * e
+    if half < math.inf:
+        # the spread bound: every weight within ±half of the output at these inputs with the
+        # new weights
+        y_new = 0.0
+        for j in range(R):
+            wn = r[q_w + j] - gw * r[s_psi + j]
+            r[q_w + j] = wn
+            wy = wn * r[s_psi + j]
+            y_new = wy if j == 0 else y_new + wy
+        for j in range(R):
+            wn = _clip(r[q_w + j], y_new - half, y_new + half)
+            r[q_w + j] = _clip(wn, -w_max, w_max)
+    else:
+        for j in range(R):
+            r[q_w + j] = _clip(r[q_w + j] - gw * r[s_psi + j], -w_max, w_max)
+
+
+@njit(cache=True, inline="always")
 def _rfnn_n(A, R, b, kk, ax, ref_pav, frame, fp, st, u):
-    # agents.rfnn.RFNNController.act, operation for operation (exp: libm's, as math.exp), for
-    # A axes and R rules; called with literal A and R where it can be, so that the compiler
-    # unrolls the loops over the rules and directions
+    # Chen & Lee 2020 eqs. 5–7 (forward) and 14–19 (update, :func:`_rfnn_learn`), the law
+    # agents.rfnn.RFNNController documents (exp: libm's, as math.exp), for A axes and R
+    # rules; called with literal A and R where it can be, so that the compiler unrolls the
+    # loops over the rules and directions
     r = st[b]
     o = 2 * A
     alpha = fp[o]
     inv_scale_e = fp[o + 1]
     inv_scale_s = fp[o + 2]
     lim = fp[o + 3]
-    th_lim = fp[o + 4]
-    w_max = fp[o + 5]
-    k_w = fp[o + 6]
-    k_th = fp[o + 7]
     learn = fp[o + 8] != 0.0
     recurrent = fp[o + 9] != 0.0
-    learn_theta = fp[o + 11] != 0.0  # learn and recurrent and k_θ > 0
     o_m = o + 12
     o_is2 = o_m + 2 * R
     s_th = A * R
     s_mem = 3 * A * R
-    s_t = 5 * A * R  # scratch: 2 (u − m) O(k−1) / σ² (2 R), ψ (R), y (A)
+    s_t = 5 * A * R  # scratch: 2 (u − m) O(k−1) / σ² (2 R), ψ (R), y (A); then eq. 23's peak
     s_psi = s_t + 2 * R
     s_y = s_psi + R
     for p in range(A):
@@ -331,18 +398,7 @@ def _rfnn_n(A, R, b, kk, ax, ref_pav, frame, fp, st, u):
             wy = r[q_w + j] * psi
             y = wy if j == 0 else y + wy
         if learn:
-            ge = k_th * e
-            gw = k_w * e
-            for j in range(R):
-                psi = r[s_psi + j]
-                w = r[q_w + j]
-                if learn_theta:
-                    a = psi * (w - y)
-                    g0 = -a * r[s_t + j]
-                    g1 = -a * r[s_t + R + j]
-                    r[q_th + j] = _clip(r[q_th + j] - ge * g0, -th_lim, th_lim)
-                    r[q_th + R + j] = _clip(r[q_th + R + j] - ge * g1, -th_lim, th_lim)
-                r[q_w + j] = _clip(w - gw * psi, -w_max, w_max)
+            _rfnn_learn(R, e, y, fp, o, o_is2 + 2 * R, r, q_w, q_th, s_t, s_psi, s_y + A)
         r[s_y + p] = y
     for i in range(A):
         c = frame[kk, i, 0] * r[s_y]

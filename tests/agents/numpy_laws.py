@@ -1,16 +1,19 @@
-"""The laws of pd, ccc, adaptive-ccc and jee-ccc written again in NumPy, on whole batches, from
-the papers' equations (the controllers' docstrings cite them): an independent reference for
-the one compiled definition (:func:`agents.compiled.laws.law`) that the controllers' ``act``
-and the fused loops both run. ``patch(controller)`` puts the reference law on the instance (a
-law on the instance is never compiled, so the run takes the Python env path with it)."""
+"""The laws of pd, ccc, adaptive-ccc, jee-ccc and rfnn / fnn written again in NumPy, on whole
+batches, from the papers' equations (the controllers' docstrings cite them): an independent
+reference for the one compiled definition (:func:`agents.compiled.laws.law`) that the
+controllers' ``act`` and the fused loops both run. ``patch(controller)`` puts the reference law
+on the instance (a law on the instance is never compiled, so the run takes the Python env path
+with it)."""
 
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
 from agents.ccc import CORNER_TURN_RAD, contour_error_estimate
+from agents.rfnn import EQ23_INSTANT_CAP, THETA_LIMIT
 
 PD_SIGNALS = ("measured_position", "measured_velocity", "reference_position", "reference_velocity")
 
@@ -107,7 +110,68 @@ def adaptive_ccc(c, signals):
     return u
 
 
-REFERENCE = {"pd": pd, "ccc": ccc, "adaptive-ccc": adaptive_ccc, "jee-ccc": jee_ccc}
+def _seq_sum(terms):
+    """Σ over the last axis, left to right from j = 0 (the compiled law's order)."""
+    total = terms[..., 0]
+    for j in range(1, terms.shape[-1]):
+        total = total + terms[..., j]
+    return total
+
+
+def rfnn(c, signals):
+    """Chen & Lee 2020 eqs. 5–7 and 14–19 with the options of issue 38 (the per-sample eq. 23
+    cap, the spread bound), from the network's pieces of :class:`agents.rfnn.RFNNController`
+    (``network``, ``theta_gradient``, ``network_inputs``); sums left to right."""
+    u = pd(c, signals)
+    B = u.shape[0]
+    e, _ = c.task_errors(signals)
+    x = c.network_inputs(signals)
+    w, theta, memory = c.w[:B], c.theta[:B], c.memory[:B]
+    y, psi, O2, d = c.network(x, memory, theta, w)
+    if c.online_update:
+        # eq. 23 at this sample, per direction: lr_w ‖∂y/∂w‖² + lr_theta ‖∂y/∂θ‖² / w_max²
+        value = c.lr_w * _seq_sum(psi * psi)
+        if c.recurrent and c.k_theta > 0.0:
+            g = c.theta_gradient(psi, w, y, d, memory)
+            step = (c.k_theta * e)[..., None, None] * g
+            gg = g * g
+            v_theta = c.lr_theta / (c.w_max * c.w_max) * _seq_sum(gg.reshape(*gg.shape[:-2], -1))
+            if c.eq23_instant:
+                over = value + v_theta > EQ23_INSTANT_CAP
+                if np.any(over):  # scale this sample's θ step down to the cap
+                    room = np.maximum(EQ23_INSTANT_CAP - value, 0.0)
+                    scale = np.where(over, room / np.where(over, v_theta, 1.0), 1.0)
+                    step = step * scale[..., None, None]
+                    v_theta = v_theta * scale
+            theta[:] = np.clip(theta - step, -THETA_LIMIT, THETA_LIMIT)
+            value = value + v_theta
+        peak = float(np.max(value))
+        if not peak <= c.eq23_peak:  # also the first sample (NaN)
+            c.eq23_peak = peak
+        w_new = w - (c.k_w * e)[..., None] * psi
+        if c.spread_max_N < math.inf:
+            # every weight within ±Δw_max/2 of the output at these inputs with the new weights
+            half = 0.5 * c.spread_max_N
+            y_new = _seq_sum(w_new * psi)[..., None]
+            w_new = np.clip(w_new, y_new - half, y_new + half)
+        w[:] = np.clip(w_new, -c.w_max, c.w_max)
+    if c.recurrent:
+        memory[:] = O2
+    # the task-frame force y on the axes: F y
+    F = signals["frame"]
+    corr = F[:, :, 0] * y[:, 0:1]
+    for p in range(1, c.n_axes):
+        corr = corr + F[:, :, p] * y[:, p : p + 1]
+    return u + corr
+
+
+REFERENCE = {
+    "pd": pd,
+    "ccc": ccc,
+    "adaptive-ccc": adaptive_ccc,
+    "jee-ccc": jee_ccc,
+    "rfnn": rfnn,
+}
 
 
 def patch(controller):

@@ -216,7 +216,7 @@ def test_a_step_patched_on_the_env_instance_takes_the_python_path():
 @pytest.mark.parametrize(
     ("spec", "case"),
     [("pd", "hsm2-circle-III"), ("ccc", "corner-blend"), ("adaptive-ccc", "hsm2-circle-I"),
-     ("jee-ccc", "jee-circle3d")],
+     ("jee-ccc", "jee-circle3d"), ("fnn", "sharp-corner"), ("rfnn:margin=1", "corner-blend")],
 )  # fmt: skip
 def test_one_definition_of_each_law_serves_both_paths(spec, case, monkeypatch):
     """The Python ``act`` runs the compiled law (:func:`agents.compiled.laws.act_rows` around

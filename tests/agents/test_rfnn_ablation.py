@@ -49,15 +49,14 @@ def test_one_rule_network_is_an_integral_of_the_task_frame_error():
     env = gym.make(ENV_ID, plant="linear-motor", path=SHORT)
     c = make_controller("rfnn:rules=1").bind(env)
     errors = []
-    task_errors = c.task_errors
+    law = c.act
 
     def recording(signals):
-        e, de = task_errors(signals)
-        errors.append(e.copy())
-        return e, de
+        errors.append(c.task_errors(signals)[0].copy())  # e of the sample the law reads
+        return law(signals)
 
-    c.task_errors = recording
-    rec = run_episode(env, c, compiled=False)
+    c.act = recording
+    rec = run_episode(env, c)
     integral = -c.k_w * np.sum(np.asarray(errors), axis=0)  # (1, A)
     assert np.max(np.abs(c.w)) < c.w_max  # the projection never acted
     np.testing.assert_allclose(c.w[..., 0], integral, rtol=1e-9, atol=1e-12)
@@ -107,9 +106,14 @@ def test_eq23_worst_case_bound_is_far_above_what_a_run_meets():
     run_episode(env, c, compiled=False)
     a_priori = c.lr_w + c.lr_theta * c.g_theta  # 0.408
     assert 0.0 < c.eq23_peak < 0.05 * a_priori
-    # a compiled run does not record it
+    # the compiled run records the same peak (one law)
+    peak = c.eq23_peak
     run_episode(env, c)
-    assert math.isnan(c.eq23_peak)
+    assert c.eq23_peak == peak
+    # a network that does not learn records none
+    off = make_controller("rfnn:learn=0").bind(env)
+    run_episode(env, off)
+    assert math.isnan(off.eq23_peak)
 
 
 def test_per_sample_eq23_lets_theta_learn_inside_the_papers_bound():
@@ -119,7 +123,7 @@ def test_per_sample_eq23_lets_theta_learn_inside_the_papers_bound():
         make_controller("rfnn:lr_theta=80")
     env = gym.make(ENV_ID, case="lm-circle3d", feedrate_m_s=0.25)
     c = make_controller("rfnn:theta0=0:instant=1:lr_theta=80").bind(env)
-    assert c.compiled_form() is None  # runs the Python law
+    assert c.compiled_form() is not None  # the option is part of the compiled law
     m = score(run_episode(env, c))
     assert m["completed"]
     assert np.max(np.abs(c.theta)) > 0.5
@@ -196,7 +200,7 @@ def test_margin_kappa_keeps_the_loops_margins(plant, load_script):
 def test_spread_bound_holds_at_every_sample(spec):
     env = gym.make(ENV_ID, case="hsm2-circle-II")
     c = make_controller(spec).bind(env)
-    assert c.kappa == MARGIN_KAPPA["hsm2"] and c.compiled_form() is None
+    assert c.kappa == MARGIN_KAPPA["hsm2"] and c.compiled_form() is not None
     assert c.spread_max_N == pytest.approx(
         spread_limit(c.kappa, float(np.min(c.P)), c.error_scale_m, c.slope_c)
     )
@@ -271,11 +275,11 @@ def test_the_oscillation_is_the_learnt_slope_beyond_the_loops_margin(hf):
     assert bounded["loop_stable"] and bounded["gain_margin_db"] > 6.0
 
 
-def test_options_leave_the_compiled_default_alone():
-    """The options run the Python law; the shipped rfnn / fnn stay compiled."""
+def test_options_run_the_one_compiled_law():
+    """The options are part of the compiled law (no Python law beside it): every variant has a
+    compiled form, and its Python ``act`` is the class's, not one put on the instance."""
     env = gym.make(ENV_ID, plant="linear-motor", path=SHORT)
-    for spec in ("rfnn", "fnn", "rfnn:rules=9"):
-        assert make_controller(spec).bind(env).compiled_form() is not None, spec
-    for spec in ("rfnn:margin=1", "fnn:kappa=0.5", "rfnn:instant=1"):
+    for spec in ("rfnn", "fnn", "rfnn:rules=9", "rfnn:margin=1", "fnn:kappa=0.5", "rfnn:instant=1"):
         c = make_controller(spec).bind(env)
-        assert isinstance(c, RFNNController) and c.compiled_form() is None, spec
+        assert isinstance(c, RFNNController) and c.compiled_form() is not None, spec
+        assert "act" not in vars(c) and not hasattr(c, "_act"), spec
