@@ -275,7 +275,8 @@ def _rfnn_learn(R, e, y, fp, o, o_x, r, q_w, q_th, s_t, s_psi, s_pk):
     # one direction's update (eqs. 14–19) with the options of issue 38: the per-sample eq. 23
     # value (recorded in r[s_pk], its largest so far), its cap on the θ step (instant=1) and
     # the rule weights' spread bound (margin=1 / kappa=κ). Sums run left to right, j = 0 first
-    # (the θ gradient's: input 0's rules, then input 1's), as the NumPy reference writes them.
+    # (the θ gradient's squared norm: rule by rule, input 0 then input 1), as the NumPy
+    # reference writes them.
     k_w = fp[o + 6]
     k_th = fp[o + 7]
     learn_theta = fp[o + 11] != 0.0  # learn and recurrent and k_θ > 0
@@ -292,30 +293,39 @@ def _rfnn_learn(R, e, y, fp, o, o_x, r, q_w, q_th, s_t, s_psi, s_pk):
     value = lr_w * ss
     if learn_theta:
         th_lim = fp[o + 4]
-        for j in range(R):  # the θ gradient, in place of its factor 2 (u − m) O(k−1) / σ²
-            a = r[s_psi + j] * (r[q_w + j] - y)
-            r[s_t + j] = -a * r[s_t + j]
-            r[s_t + R + j] = -a * r[s_t + R + j]
-        gg = 0.0
-        for j in range(2 * R):
-            g = r[s_t + j]
-            gg = g * g if j == 0 else gg + g * g
-        v_theta = v_coef * gg
-        scaled = False
-        scale = 1.0
-        if instant and value + v_theta > cap:  # scale this sample's θ step down to the cap
-            room = cap - value
-            if room < 0.0:
-                room = 0.0
-            scale = room / v_theta
-            v_theta = v_theta * scale
-            scaled = True
         ge = k_th * e
-        for j in range(2 * R):
-            step = ge * r[s_t + j]
-            if scaled:
-                step = step * scale
-            r[q_th + j] = _clip(r[q_th + j] - step, -th_lim, th_lim)
+        gg = 0.0
+        # the θ gradient (in place of its factor 2 (u − m) O(k−1) / σ², formed in the forward
+        # pass) and its squared norm, rule by rule (input 0, input 1); without the per-sample
+        # cap θ steps in the same pass
+        for j in range(R):
+            a = r[s_psi + j] * (r[q_w + j] - y)
+            g0 = -a * r[s_t + j]
+            g1 = -a * r[s_t + R + j]
+            gg = g0 * g0 if j == 0 else gg + g0 * g0
+            gg = gg + g1 * g1
+            if instant:
+                r[s_t + j] = g0
+                r[s_t + R + j] = g1
+            else:
+                r[q_th + j] = _clip(r[q_th + j] - ge * g0, -th_lim, th_lim)
+                r[q_th + R + j] = _clip(r[q_th + R + j] - ge * g1, -th_lim, th_lim)
+        v_theta = v_coef * gg
+        if instant:
+            scaled = False
+            scale = 1.0
+            if value + v_theta > cap:  # scale this sample's θ step down to the cap
+                room = cap - value
+                if room < 0.0:
+                    room = 0.0
+                scale = room / v_theta
+                v_theta = v_theta * scale
+                scaled = True
+            for j in range(2 * R):
+                step = ge * r[s_t + j]
+                if scaled:
+                    step = step * scale
+                r[q_th + j] = _clip(r[q_th + j] - step, -th_lim, th_lim)
         value = value + v_theta
     if not value <= r[s_pk]:  # also the first sample (NaN)
         r[s_pk] = value

@@ -134,7 +134,7 @@ def rfnn(c, signals):
         if c.recurrent and c.k_theta > 0.0:
             g = c.theta_gradient(psi, w, y, d, memory)
             step = (c.k_theta * e)[..., None, None] * g
-            gg = g * g
+            gg = np.swapaxes(g * g, -1, -2)  # rule by rule: (rule j, input 0), (j, input 1)
             v_theta = c.lr_theta / (c.w_max * c.w_max) * _seq_sum(gg.reshape(*gg.shape[:-2], -1))
             if c.eq23_instant:
                 over = value + v_theta > EQ23_INSTANT_CAP
