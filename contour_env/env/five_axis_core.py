@@ -92,6 +92,18 @@ _INFO_FIELDS = {
 _SCALARS = ("time", "contour_error", "orientation_error")
 
 
+def _record(cls, *sources):
+    # a record of ``cls`` whose each field is the attribute of that name of the first of
+    # ``sources`` that has one
+    def field(name):
+        for source in sources:
+            if hasattr(source, name):
+                return getattr(source, name)
+        raise AttributeError(f"{name}: in none of {[type(s).__name__ for s in sources]}")
+
+    return cls(*(field(name) for name in cls._fields))
+
+
 class _StepThreads:
     """The five-axis step runs on the calling thread (``num_threads`` is accepted and kept
     for the common interface; the results do not depend on it)."""
@@ -198,6 +210,7 @@ class FiveAxisCore:
         self.all_active = np.ones(B, dtype=bool)
         self._all_envs = np.arange(B, dtype=np.int64)
         self._fresh_info = None
+        self._records = None  # built by records()
 
     # --- the per-plant layout readers of every core use (run_episode, render) --------------
     @property
@@ -234,6 +247,33 @@ class FiveAxisCore:
             raise ValueError(f"envs: indices must be in [0, {self.n_envs}), got {envs.tolist()}")
         return envs
 
+    def records(self) -> tuple:
+        """The kernel's records (path, env state, plant arrays, outputs: the named tuples of
+        :mod:`contour_env.env.five_axis_kernel`), each field this core's attribute of that
+        name (the plant's parameter sets from ``packed``). Built once: the core never
+        replaces those arrays, except the outputs in :meth:`renew_outputs`, which builds that
+        record again."""
+        if self._records is None:
+            self._set_records(
+                (
+                    _record(K5.FiveAxisPath, self),
+                    _record(K5.FiveAxisEnvState, self),
+                    _record(K5.FiveAxisPlantArrays, self, self.packed),
+                    _record(K5.FiveAxisOutputs, self),
+                )
+            )
+        return self._records
+
+    def _set_records(self, records: tuple) -> None:
+        self._records = records
+        self._flat_arrays = tuple(a for record in records for a in record)
+
+    def _flat(self) -> tuple:
+        # the records' arrays in their declared order, as the kernel's entry points take them
+        if self._records is None:
+            self.records()
+        return self._flat_arrays
+
     def reset_env(self, b: int, noise_seed: int) -> None:
         self.reset_envs(np.array([b], dtype=np.int64), [noise_seed])
 
@@ -245,13 +285,7 @@ class FiveAxisCore:
         if len(noise_seeds) != envs.size:
             raise ValueError(f"noise_seeds: one per env ({envs.size}), got {len(noise_seeds)}")
         self.seed[envs] = np.array([int(s) % (1 << 64) for s in noise_seeds], dtype=np.uint64)
-        K5.reset_envs(
-            envs, self.cfg, self.icfg, self.ref_q, self.ref_qd, self.ref_tip, self.ref_tool,
-            self.ref_feed, self.resolution, self.q0_hold, self.q, self.qd, self.tau,
-            self.u_pending, self.meas, self.mprev, self.mvel, self.applied, self.k, self.near,
-            self.eps, self.orient, self.tip, self.tool, self.status, self.action, self.obs,
-            self.reward, self.terminated, self.truncated,
-        )  # fmt: skip
+        K5.reset_envs(envs, self.cfg, self.icfg, *self._flat())
 
     def step(
         self,
@@ -273,15 +307,7 @@ class FiveAxisCore:
         self.refuse_nonfinite(action, active)
         if fresh_outputs:
             self.renew_outputs()
-        p = self.packed
-        _, _, n_ended = K5.env_step(
-            self.cfg, self.icfg, self.ref_q, self.ref_qd, self.ref_tip, self.ref_tool,
-            self.ref_feed, self.resolution, self.force_limit, p.ip, p.jp, p.pidx,
-            self.q, self.qd, self.tau, self.u_pending, self.meas, self.mprev, self.mvel,
-            self.applied, self.k, self.near, self.eps, self.orient, self.tip, self.tool,
-            self.status, self.action, action, active, self.obs, self.reward, self.terminated,
-            self.truncated,
-        )  # fmt: skip
+        _, _, n_ended = K5.env_step(self.cfg, self.icfg, action, active, *self._flat())
         if info_arrays is not None:
             self.fill_info(info_arrays, np.flatnonzero(active))
         return int(n_ended)
@@ -304,6 +330,8 @@ class FiveAxisCore:
         self.reward = self.reward.copy()
         self.terminated = self.terminated.copy()
         self.truncated = self.truncated.copy()
+        if self._records is not None:  # the outputs record holds the new arrays
+            self._set_records((*self._records[:3], _record(K5.FiveAxisOutputs, self)))
 
     # --- info ------------------------------------------------------------------------------
     def new_info_arrays(self) -> dict:

@@ -11,11 +11,13 @@ with the N_* slots.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
 
 from ..plants.five_axis.plant import five_axis_step_batch
+from .borrow import register_record
 from .layout import STATUS_CONTOUR_LIMIT, STATUS_NONFINITE, STATUS_OK, STATUS_TRACKING_LIMIT
 from .reward import five_axis_reward, guard_reward
 
@@ -44,6 +46,52 @@ N_SIZE = 4
 
 # observation layout (see FiveAxisCore's docstring)
 OBS_DIM = 22
+
+# The arrays of the entry points, by record; each field is the FiveAxisCore attribute of that
+# name (FiveAxisCore.records builds them by field name), so the list is written here only.
+# The reference tables: joints ξ_d (n, 5), joint rates (n, 5), tool tip (n, 3) m, tool
+# vector (n, 3), feedrate (n,) m/s
+FiveAxisPath = register_record(
+    namedtuple("FiveAxisPath", ("ref_q", "ref_qd", "ref_tip", "ref_tool", "ref_feed"))
+)
+# Per env (B, ...): joints, rates, applied torque, delayed command, measured joints, their
+# previous value and backward-difference rate, the force applied last period, reference
+# index, nearest reference sample, contour and orientation errors (m, rad), tool tip and
+# vector, guard status, previous action
+FiveAxisEnvState = register_record(
+    namedtuple(
+        "FiveAxisEnvState",
+        (
+            "q", "qd", "tau", "u_pending", "meas", "mprev", "mvel", "applied", "k", "near",
+            "eps", "orient", "tip", "tool", "status", "action",
+        ),
+    )
+)  # fmt: skip
+# Encoder resolution (5,) m/rad, drive limits (5,) N/N·m, the torques holding gravity at the
+# start pose (5,), and the packed parameter sets (PackedFiveAxis: ip, jp, pidx)
+FiveAxisPlantArrays = register_record(
+    namedtuple("FiveAxisPlantArrays", ("resolution", "force_limit", "q0_hold", "ip", "jp", "pidx"))
+)
+# What a step writes for Python: observation (B, OBS_DIM) float32, reward, done flags
+FiveAxisOutputs = register_record(
+    namedtuple("FiveAxisOutputs", ("obs", "reward", "terminated", "truncated"))
+)
+ENTRY_RECORDS = (FiveAxisPath, FiveAxisEnvState, FiveAxisPlantArrays, FiveAxisOutputs)
+# where each record's arrays end in the entry points' flat list
+PATH_END, STATE_END, PLANT_END, OUT_END = (
+    int(e) for e in np.cumsum([len(r._fields) for r in ENTRY_RECORDS])
+)
+
+
+@njit(cache=True, inline="always")
+def records_of(arrays):
+    """The records of an entry point's flat arrays (:data:`ENTRY_RECORDS`, in order)."""
+    return (
+        FiveAxisPath(*arrays[0:PATH_END]),
+        FiveAxisEnvState(*arrays[PATH_END:STATE_END]),
+        FiveAxisPlantArrays(*arrays[STATE_END:PLANT_END]),
+        FiveAxisOutputs(*arrays[PLANT_END:OUT_END]),
+    )
 
 
 @njit(cache=True, inline="always")
@@ -198,14 +246,15 @@ def nearest_on_reference(tip, tool, ref_tip, ref_tool, j0, k, window):
 
 
 @njit(cache=True)
-def observe_one(
-    b, cfg, k, n_steps, meas, mvel, ref_q, ref_qd, ref_tip, ref_tool, ref_feed, prev_a, obs
-):
-    """Observation of env b from its measured joints (the layout of FiveAxisCore)."""
+def observe_one(b, cfg, k, n_steps, path, state, out):
+    """Observation of env b from its measured joints (the layout of FiveAxisCore), into
+    ``out.obs``."""
     kk = min(k, n_steps - 1)
     clip = cfg[F_OBS_CLIP]
     inv_e = 1.0 / cfg[F_ERR_SCALE]
     inv_v = 1.0 / cfg[F_VERR_SCALE]
+    meas, mvel, prev_a = state.meas, state.mvel, state.action
+    ref_q, ref_qd, ref_tip, ref_tool = path.ref_q, path.ref_qd, path.ref_tip, path.ref_tool
     tip = np.empty(3)
     tool = np.empty(3)
     forward_into(meas[b], cfg[F_D4], cfg[F_TIP_OFFSET], tip, tool)
@@ -217,7 +266,8 @@ def observe_one(
     for i in range(3):
         vals[10 + i] = (ref_tip[kk, i] - tip[i]) * inv_e
         vals[13 + i] = (ref_tool[kk, i] - tool[i]) * cfg[F_LEVER] * inv_e
-    vals[16] = ref_feed[kk] / cfg[F_FEED_SCALE]
+    vals[16] = path.ref_feed[kk] / cfg[F_FEED_SCALE]
+    obs = out.obs
     for i in range(22):
         v = vals[i]
         if not math.isfinite(v):
@@ -228,50 +278,63 @@ def observe_one(
 
 
 @njit(cache=True)
-def reset_envs(
-    envs, cfg, icfg, ref_q, ref_qd, ref_tip, ref_tool, ref_feed, res, q0_hold,
-    q, qd, tau, u_pending, meas, mprev, mvel, applied, k, near, eps, orient, tip, tool,
-    status, prev_a, obs, reward, terminated, truncated,
-):  # fmt: skip
-    """Put the envs ``envs`` at rest on the reference start, drives holding gravity."""
+def reset_envs(envs, cfg, icfg, *arrays):
+    """Put the envs ``envs`` at rest on the reference start, drives holding gravity.
+    ``arrays``: the records' arrays, flat, in their declared order (:func:`records_of`)."""
+    path, state, plant, out = records_of(arrays)
+    _reset_records(envs, cfg, icfg, path, state, plant, out)
+
+
+@njit(cache=True)
+def _reset_records(envs, cfg, icfg, path, state, plant, out):
     n_steps = icfg[N_STEPS]
+    ref_q, q0_hold, res = path.ref_q, plant.q0_hold, plant.resolution
+    q, qd, meas = state.q, state.qd, state.meas
     for b in envs:
         for j in range(5):
             q[b, j] = ref_q[0, j]
             qd[b, j] = 0.0
-            tau[b, j] = q0_hold[j]
-            u_pending[b, j] = q0_hold[j]
-            r = res[j]
-            meas[b, j] = quantize(q[b, j], r)
-            mprev[b, j] = meas[b, j]
-            mvel[b, j] = 0.0
-            applied[b, j] = q0_hold[j]
-            prev_a[b, j] = 0.0
-        k[b] = 0
-        forward_into(q[b], cfg[F_D4], cfg[F_TIP_OFFSET], tip[b], tool[b])
-        d, a, jn = nearest_on_reference(tip[b], tool[b], ref_tip, ref_tool, 0, 0, icfg[N_WINDOW])
-        eps[b], orient[b], near[b] = d, a, jn
-        status[b] = STATUS_OK
-        reward[b] = 0.0
-        terminated[b] = False
-        truncated[b] = False
-        observe_one(
-            b, cfg, 0, n_steps, meas, mvel, ref_q, ref_qd, ref_tip, ref_tool, ref_feed, prev_a, obs
+            state.tau[b, j] = q0_hold[j]
+            state.u_pending[b, j] = q0_hold[j]
+            meas[b, j] = quantize(q[b, j], res[j])
+            state.mprev[b, j] = meas[b, j]
+            state.mvel[b, j] = 0.0
+            state.applied[b, j] = q0_hold[j]
+            state.action[b, j] = 0.0
+        state.k[b] = 0
+        tip, tool = state.tip[b], state.tool[b]
+        forward_into(q[b], cfg[F_D4], cfg[F_TIP_OFFSET], tip, tool)
+        d, a, jn = nearest_on_reference(
+            tip, tool, path.ref_tip, path.ref_tool, 0, 0, icfg[N_WINDOW]
         )
+        state.eps[b], state.orient[b], state.near[b] = d, a, jn
+        state.status[b] = STATUS_OK
+        out.reward[b] = 0.0
+        out.terminated[b] = False
+        out.truncated[b] = False
+        observe_one(b, cfg, 0, n_steps, path, state, out)
 
 
 @njit(cache=True)
-def env_step(
-    cfg, icfg, ref_q, ref_qd, ref_tip, ref_tool, ref_feed, res, limit, ip, jp, pidx,
-    q, qd, tau, u_pending, meas, mprev, mvel, applied, k, near, eps, orient, tip, tool,
-    status, prev_a, action, active, obs, reward, terminated, truncated,
-):  # fmt: skip
-    """Step every active env once. Returns (first env with a non-finite action or −1,
-    terminated count, ended count); an env with a bad action is not stepped."""
+def env_step(cfg, icfg, action, active, *arrays):
+    """Step every active env once with ``action`` (B, 5) in [-1, 1]. Returns (first env with
+    a non-finite action or −1, terminated count, ended count); an env with a bad action is
+    not stepped. ``arrays``: the records' arrays, flat, in their declared order (a tuple of
+    records from Python costs numba's dispatcher several µs a call; flat arrays do not)."""
+    path, state, plant, out = records_of(arrays)
+    return _step_records(cfg, icfg, path, state, plant, action, active, out)
+
+
+@njit(cache=True)
+def _step_records(cfg, icfg, path, state, plant, action, active, out):
     n_steps = icfg[N_STEPS]
     T = cfg[F_T]
     lever = cfg[F_LEVER]
     inv_scale = 1.0 / cfg[F_EPS_SCALE]
+    q, qd, k, meas, mprev = state.q, state.qd, state.k, state.meas, state.mprev
+    ref_tip = path.ref_tip
+    limit, res = plant.force_limit, plant.resolution
+    reward, terminated, truncated = out.reward, out.terminated, out.truncated
     command = np.empty((1, 5))
     app = np.empty((1, 5))
     bad = -1
@@ -291,34 +354,35 @@ def env_step(
         effort = 0.0
         for j in range(5):
             a = min(max(action[b, j], -1.0), 1.0)
-            prev_a[b, j] = a
+            state.action[b, j] = a
             effort += a * a
             command[0, j] = a * limit[j]
         five_axis_step_batch(
-            q[b : b + 1], qd[b : b + 1], tau[b : b + 1], u_pending[b : b + 1], command,
-            k[b] * T, T, icfg[N_SUB], icfg[N_DELAY] != 0, ip, jp, pidx[b : b + 1], app,
+            q[b : b + 1], qd[b : b + 1], state.tau[b : b + 1], state.u_pending[b : b + 1],
+            command, k[b] * T, T, icfg[N_SUB], icfg[N_DELAY] != 0, plant.ip, plant.jp,
+            plant.pidx[b : b + 1], app,
         )  # fmt: skip
         k[b] += 1
         kk = min(k[b], n_steps - 1)
         ok = True
         for j in range(5):
-            applied[b, j] = app[0, j]
+            state.applied[b, j] = app[0, j]
             mprev[b, j] = meas[b, j]
-            r = res[j]
-            meas[b, j] = quantize(q[b, j], r)
-            mvel[b, j] = (meas[b, j] - mprev[b, j]) / T
+            meas[b, j] = quantize(q[b, j], res[j])
+            state.mvel[b, j] = (meas[b, j] - mprev[b, j]) / T
             if not (math.isfinite(q[b, j]) and math.isfinite(qd[b, j])):
                 ok = False
         st = STATUS_OK
         track = 0.0
         if ok:
-            forward_into(q[b], cfg[F_D4], cfg[F_TIP_OFFSET], tip[b], tool[b])
+            tip, tool = state.tip[b], state.tool[b]
+            forward_into(q[b], cfg[F_D4], cfg[F_TIP_OFFSET], tip, tool)
             d, ang, jn = nearest_on_reference(
-                tip[b], tool[b], ref_tip, ref_tool, near[b], kk, icfg[N_WINDOW]
+                tip, tool, ref_tip, path.ref_tool, state.near[b], kk, icfg[N_WINDOW]
             )
-            eps[b], orient[b], near[b] = d, ang, jn
+            state.eps[b], state.orient[b], state.near[b] = d, ang, jn
             for i in range(3):
-                e = ref_tip[kk, i] - tip[b, i]
+                e = ref_tip[kk, i] - tip[i]
                 track += e * e
             track = math.sqrt(track)
             if d + lever * ang > cfg[F_ABORT_CONTOUR]:
@@ -326,10 +390,10 @@ def env_step(
             elif track > cfg[F_ABORT_TRACK]:
                 st = STATUS_TRACKING_LIMIT
         else:
-            eps[b] = np.nan
-            orient[b] = np.nan
+            state.eps[b] = np.nan
+            state.orient[b] = np.nan
             st = STATUS_NONFINITE
-        status[b] = st
+        state.status[b] = st
         if st != STATUS_OK:
             terminated[b] = True
             truncated[b] = False
@@ -343,14 +407,11 @@ def env_step(
                 n_end += 1
             reward[b] = five_axis_reward(
                 cfg[F_W_CONTOUR], cfg[F_W_LAG], cfg[F_W_EFFORT], inv_scale,
-                eps[b], lever, orient[b], track, effort,
+                state.eps[b], lever, state.orient[b], track, effort,
             )  # fmt: skip
         if ok:
-            observe_one(
-                b, cfg, k[b], n_steps, meas, mvel, ref_q, ref_qd, ref_tip, ref_tool, ref_feed,
-                prev_a, obs,
-            )  # fmt: skip
+            observe_one(b, cfg, k[b], n_steps, path, state, out)
         else:
             for i in range(OBS_DIM):
-                obs[b, i] = 0.0
+                out.obs[b, i] = 0.0
     return bad, n_term, n_end

@@ -209,34 +209,6 @@ AX_FIELDS = (
     Field("REF", F64, "A", "m", "reference position"),
     Field("TOFF", F64, "A", "s", "time offset of the plant's periodic disturbance, per episode"),
 )
-# rows of the float block of the batched info (each (B, A)); the scalar block: time, contour
-# error
-INFO_FIELDS = (
-    Field("POSITION", F64, "A", "m", "true position (table side)"),
-    Field("MEASURED", F64, "A", "m", "measured position"),
-    Field("VELOCITY", F64, "A", "m/s", "true velocity"),
-    Field("REFERENCE", F64, "A", "m", "reference position"),
-    Field("ESTIMATE", F64, "A", "m", "Fᵀ(x_d − x)"),
-    Field("TRACKING", F64, "A", "m", "x_d − x"),
-    Field("FORCE", F64, "A", "N", "applied force"),
-)
-
-
-def _index_constants(prefix: str, fields) -> dict:
-    return {f"{prefix}{f.name}": i for i, f in enumerate(fields)}
-
-
-# C_T, C_ERR_SCALE, ..., I_NSTEPS, ..., AX_STUCK, ..., INFO_POSITION, ...: the index of each
-# declared field in its array (module constants: numba compiles them in as literals)
-globals().update(_index_constants("C_", CFG_FIELDS))
-globals().update(_index_constants("I_", ICFG_FIELDS))
-globals().update(_index_constants("AX_", AX_FIELDS))
-globals().update(_index_constants("INFO_", INFO_FIELDS))
-CFG_SIZE = len(CFG_FIELDS)
-ICFG_SIZE = len(ICFG_FIELDS)
-AX_SIZE = len(AX_FIELDS)
-INFO_ROWS = len(INFO_FIELDS)
-
 # The info dict of a step (``info`` of ContouringEnv, per env; the vector env's, batched):
 # each key, and where the batched info arrays hold it: ("f", row) the float block (B, A)
 # rows, ("s", row) the scalar block (2, B) (time s, contour error m), "sat" the saturation
@@ -257,6 +229,32 @@ INFO_KEYS = (
     (Field("termination_reason", "str", "", "–", "None while running, then the guard's reason"),
      "reason"),
 )  # fmt: skip
+
+# rows of the float block of the batched info (each (B, A)), in order: the INFO_KEYS entries
+# held there ("f", row), each named by its row (INFO_POSITION, ...); the scalar block: time,
+# contour error
+INFO_FIELDS = tuple(
+    field._replace(name=where[1])
+    for field, where in INFO_KEYS
+    if isinstance(where, tuple) and where[0] == "f"
+)
+
+
+def _index_constants(prefix: str, fields) -> dict:
+    return {f"{prefix}{f.name}": i for i, f in enumerate(fields)}
+
+
+# C_T, C_ERR_SCALE, ..., I_NSTEPS, ..., AX_STUCK, ..., INFO_POSITION, ...: the index of each
+# declared field in its array (module constants: numba compiles them in as literals)
+globals().update(_index_constants("C_", CFG_FIELDS))
+globals().update(_index_constants("I_", ICFG_FIELDS))
+globals().update(_index_constants("AX_", AX_FIELDS))
+globals().update(_index_constants("INFO_", INFO_FIELDS))
+CFG_SIZE = len(CFG_FIELDS)
+ICFG_SIZE = len(ICFG_FIELDS)
+AX_SIZE = len(AX_FIELDS)
+INFO_ROWS = len(INFO_FIELDS)
+
 
 # The observation, in order (float32, clipped to ±obs_clip): ``shape`` in axes A and preview
 # times p; ``unit`` before scaling, ``doc`` ending in the scale

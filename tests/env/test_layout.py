@@ -122,6 +122,33 @@ def test_the_entry_points_array_list_is_written_once():
     assert bounds == tuple(np.cumsum([len(r._fields) for r in L.ENTRY_RECORDS]))
 
 
+def test_the_five_axis_entry_points_take_records():
+    """The five-axis kernel's arrays are listed in its record declarations only (no run of 6
+    field names in its kernel or core), and FiveAxisCore builds each record from its own
+    attributes of the same names."""
+    from contour_env.env import five_axis_kernel as K5
+
+    records = (K5.FiveAxisPath, K5.FiveAxisEnvState, K5.FiveAxisPlantArrays, K5.FiveAxisOutputs)
+    names = set().union(*(r._fields for r in records))
+    for module in ("five_axis_kernel.py", "five_axis_core.py"):
+        assert _names_in_a_row((ENV_DIR / module).read_text(), names, 6) == [], module
+    assert _names_in_a_row("q, qd, tau, u_pending, meas, mprev, mvel", names, 6)
+    env = gym.make("contour_env/FiveAxis-v0").unwrapped
+    env.reset(seed=0)
+    core = env.core
+    path, state, plant, out = core.records()
+    for rec in (path, state, out):
+        for name in rec._fields:
+            assert getattr(rec, name) is getattr(core, name), name
+    assert plant.ip is core.packed.ip and plant.pidx is core.packed.pidx
+    assert plant.q0_hold is core.q0_hold and plant.resolution is core.resolution
+    # the outputs a step hands out are replaced (renew_outputs): the record follows
+    old = core.obs
+    core.renew_outputs()
+    assert core.obs is not old and core.records()[3].obs is core.obs
+    assert core.records()[1] is state  # the rest is kept
+
+
 def test_the_packed_plant_unpacks_in_the_records_order():
     from dataclasses import fields
 
