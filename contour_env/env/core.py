@@ -384,12 +384,16 @@ class EnvCore:
         """``(EnvState, PathArrays, PlantArrays)`` of this core: its arrays as the compiled
         step's stages take them (the arrays themselves, not copies; each record's fields are
         the core's attributes of the same names, the plant's those of ``packed``)."""
-        return _record(EnvState, self), _record(PathArrays, self), _record(PlantArrays, self.packed)
+        return (
+            record_from(EnvState, self),
+            record_from(PathArrays, self),
+            record_from(PlantArrays, self.packed),
+        )
 
     def step_outputs(self) -> StepOutputs:
         """The arrays the next step writes its outputs into (obs, reward, terminated,
         truncated)."""
-        return _record(StepOutputs, self)
+        return record_from(StepOutputs, self)
 
     # --- readouts of the batch (views: valid until the next step) --------------------------
     @property
@@ -732,9 +736,19 @@ def check_seed(seed, name: str = "seed") -> int:
     return seed
 
 
-def _record(record, holder):
-    # the record of the arrays ``holder`` keeps under the record's field names
-    return record(*(getattr(holder, name) for name in record._fields))
+def record_from(record, *holders):
+    """The record (a named tuple class of the kernel's arrays) whose each field is the
+    attribute of that name of the first of ``holders`` that has one (``AttributeError``
+    naming the field where none has): the cores build their kernel records this way, so a
+    record's field list is written only in its declaration."""
+
+    def field(name):
+        for holder in holders:
+            if hasattr(holder, name):
+                return getattr(holder, name)
+        raise AttributeError(f"{name}: in none of {[type(h).__name__ for h in holders]}")
+
+    return record(*(field(name) for name in record._fields))
 
 
 def _info_builder(batched: bool):

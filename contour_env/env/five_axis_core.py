@@ -64,7 +64,8 @@ import numpy as np
 from ..plants.five_axis import FiveAxisParams, gravity, pack_five_axis
 from ..plants.params import one_params_per_env
 from . import five_axis_kernel as K5
-from .layout import REASON_BY_STATUS, TERMINATION_REASONS, zero_outputs
+from .core import record_from
+from .layout import REASON_BY_STATUS, TERMINATION_REASONS, StepOutputs, zero_outputs
 
 # half-width of the nearest-point search (reference samples) around the last nearest one;
 # the tip moves about one sample per step, so 64 samples leave a wide margin while it lags
@@ -90,18 +91,6 @@ _INFO_FIELDS = {
     "reference_tool_tip": ((3,), np.float64),
 }
 _SCALARS = ("time", "contour_error", "orientation_error")
-
-
-def _record(cls, *sources):
-    # a record of ``cls`` whose each field is the attribute of that name of the first of
-    # ``sources`` that has one
-    def field(name):
-        for source in sources:
-            if hasattr(source, name):
-                return getattr(source, name)
-        raise AttributeError(f"{name}: in none of {[type(s).__name__ for s in sources]}")
-
-    return cls(*(field(name) for name in cls._fields))
 
 
 class _StepThreads:
@@ -256,10 +245,10 @@ class FiveAxisCore:
         if self._records is None:
             self._set_records(
                 (
-                    _record(K5.FiveAxisPath, self),
-                    _record(K5.FiveAxisEnvState, self),
-                    _record(K5.FiveAxisPlantArrays, self, self.packed),
-                    _record(K5.FiveAxisOutputs, self),
+                    record_from(K5.FiveAxisPath, self),
+                    record_from(K5.FiveAxisEnvState, self),
+                    record_from(K5.FiveAxisPlantArrays, self, self.packed),
+                    record_from(StepOutputs, self),
                 )
             )
         return self._records
@@ -331,7 +320,7 @@ class FiveAxisCore:
         self.terminated = self.terminated.copy()
         self.truncated = self.truncated.copy()
         if self._records is not None:  # the outputs record holds the new arrays
-            self._set_records((*self._records[:3], _record(K5.FiveAxisOutputs, self)))
+            self._set_records((*self._records[:3], record_from(StepOutputs, self)))
 
     # --- info ------------------------------------------------------------------------------
     def new_info_arrays(self) -> dict:

@@ -18,7 +18,13 @@ from numba import njit
 
 from ..plants.five_axis.plant import five_axis_step_batch
 from .borrow import register_record
-from .layout import STATUS_CONTOUR_LIMIT, STATUS_NONFINITE, STATUS_OK, STATUS_TRACKING_LIMIT
+from .layout import (
+    STATUS_CONTOUR_LIMIT,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_TRACKING_LIMIT,
+    StepOutputs,
+)
 from .reward import five_axis_reward, guard_reward
 
 # cfg slots
@@ -72,11 +78,9 @@ FiveAxisEnvState = register_record(
 FiveAxisPlantArrays = register_record(
     namedtuple("FiveAxisPlantArrays", ("resolution", "force_limit", "q0_hold", "ip", "jp", "pidx"))
 )
-# What a step writes for Python: observation (B, OBS_DIM) float32, reward, done flags
-FiveAxisOutputs = register_record(
-    namedtuple("FiveAxisOutputs", ("obs", "reward", "terminated", "truncated"))
-)
-ENTRY_RECORDS = (FiveAxisPath, FiveAxisEnvState, FiveAxisPlantArrays, FiveAxisOutputs)
+# what a step writes for Python (observation (B, OBS_DIM) float32, reward, done flags): the
+# feed-drive kernel's StepOutputs
+ENTRY_RECORDS = (FiveAxisPath, FiveAxisEnvState, FiveAxisPlantArrays, StepOutputs)
 # where each record's arrays end in the entry points' flat list
 PATH_END, STATE_END, PLANT_END, OUT_END = (
     int(e) for e in np.cumsum([len(r._fields) for r in ENTRY_RECORDS])
@@ -90,7 +94,7 @@ def records_of(arrays):
         FiveAxisPath(*arrays[0:PATH_END]),
         FiveAxisEnvState(*arrays[PATH_END:STATE_END]),
         FiveAxisPlantArrays(*arrays[STATE_END:PLANT_END]),
-        FiveAxisOutputs(*arrays[PLANT_END:OUT_END]),
+        StepOutputs(*arrays[PLANT_END:OUT_END]),
     )
 
 

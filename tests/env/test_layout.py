@@ -128,7 +128,7 @@ def test_the_five_axis_entry_points_take_records():
     attributes of the same names."""
     from contour_env.env import five_axis_kernel as K5
 
-    records = (K5.FiveAxisPath, K5.FiveAxisEnvState, K5.FiveAxisPlantArrays, K5.FiveAxisOutputs)
+    records = (K5.FiveAxisPath, K5.FiveAxisEnvState, K5.FiveAxisPlantArrays, L.StepOutputs)
     names = set().union(*(r._fields for r in records))
     for module in ("five_axis_kernel.py", "five_axis_core.py"):
         assert _names_in_a_row((ENV_DIR / module).read_text(), names, 6) == [], module
